@@ -1,0 +1,242 @@
+"""Baxter with end-effector control: model loading, ids, sensors, reset and step.
+
+Every id is resolved once from the MjModel by name. Observations come only from MJCF
+sensors, so the same code runs on both physics backends. Tasks and skills subclass
+`BaxterEnv` and provide the start distribution, the goal and the success predicate.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+
+from mjx_skills.config import EnvConfig
+from mjx_skills.envs.base import State
+from mjx_skills.envs.physics import PhysicsState, make_backend
+
+XML_DIR = Path(__file__).resolve().parents[2] / "xml"
+
+# Sensor names of the observation, in order, as declared in xml/baxter.xml and the scenes.
+SENSORS = (
+    "grip_pos", "grip_linvel", "finger_l_pos", "finger_r_pos", "finger_l_vel", "finger_r_vel",
+    "object_pos", "object_quat", "object_linvel", "object_angvel",
+)  # fmt: skip
+
+FINGER_OPEN = 0.020833  # finger travel in m (each); ctrl = -0.02 squeezes past closed.
+FINGER_CLOSED_CTRL = -0.02
+HOME_GRIP = np.array([0.7, -0.2, 0.1])  # grip point of the home pose, torso frame
+UNTUCK_QPOS = np.array([0.08, -1.0, 1.19, 1.94, -0.67, 1.03, 0.50])
+PARKED_OBJECT = np.array([2.0, 0.0, -0.5])  # out of every contact pair while the arm moves
+
+
+def load_model(scene: str, config: EnvConfig) -> mujoco.MjModel:
+    path = XML_DIR / scene
+    if not path.exists():
+        raise FileNotFoundError(f"scene {path} not found")
+    model = mujoco.MjModel.from_xml_path(str(path))
+    model.opt.timestep = config.timestep
+    model.opt.iterations = config.solver_iterations
+    model.opt.ls_iterations = config.ls_iterations
+    return model
+
+
+def home_qpos(model: mujoco.MjModel) -> np.ndarray:
+    """Arm joints of the home pose: let the weld pull the untucked arm onto HOME_GRIP."""
+    data = mujoco.MjData(model)
+    data.qpos[:7] = UNTUCK_QPOS
+    data.mocap_pos[0] = HOME_GRIP
+    for _ in range(int(2.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    return data.qpos[:7].copy()
+
+
+def quat_to_euler(q: jax.Array) -> jax.Array:
+    """(w, x, y, z) -> roll, pitch, yaw (x-y-z convention)."""
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    roll = jnp.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = jnp.arcsin(jnp.clip(2 * (w * y - z * x), -1.0, 1.0))
+    yaw = jnp.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return jnp.stack([roll, pitch, yaw], axis=-1)
+
+
+class BaxterEnv:
+    """Base of every task and skill env. Subclasses set the class attributes below and
+    implement `sample_start` and (optionally) `achieved_goal` / `is_success`."""
+
+    scene: str = "scene_pick_move.xml"
+    default_episode_length: int = 50
+    default_threshold: float = 0.03
+    grasped_start: bool = False
+    """Whether episodes start with the object held (transfer)."""
+    goal_is_object: bool = True
+    """Whether the achieved goal is the object's position (else the gripper's)."""
+    action_dim = 4
+    goal_dim = 3
+
+    def __init__(self, config: EnvConfig | None = None):
+        self.config = config = config or EnvConfig()
+        self.model = load_model(self.scene, config)
+        self.backend = make_backend(self.model, config.physics, config.native_threads)
+        self.episode_length = config.episode_length or self.default_episode_length
+        self.threshold = config.distance_threshold or self.default_threshold
+        self._sensor_slices = {
+            name: slice(self.model.sensor(name).adr[0], self.model.sensor(name).adr[0] + self.model.sensor(name).dim[0])
+            for name in SENSORS
+        }  # fmt: skip
+        self._object_qpos = self.model.jnt_qposadr[self.model.joint("object").id]
+        self._object_qvel = self.model.jnt_dofadr[self.model.joint("object").id]
+        self._home_qpos = jnp.asarray(home_qpos(self.model), jnp.float32)
+        data = mujoco.MjData(self.model)
+        mujoco.mj_kinematics(self.model, data)
+        table = self.model.geom("table")
+        self.table_z = float(data.geom_xpos[table.id][2] + table.size[2])
+        self.object_half = float(self.model.geom("object").size[2])
+        # Workspace of the grip point (torso frame): the thesis's box re-derived for our
+        # table; z from just above the table (pads reach 5 mm below the grip point) to 30 cm.
+        self.workspace_low = jnp.array([0.5, -0.5, self.table_z + 0.012])
+        self.workspace_high = jnp.array([0.9, 0.1, self.table_z + 0.30])
+        self.obs_dim = 25
+
+    # ------------------------------------------------------------------ sensors
+    def sensors(self, sensordata: jax.Array) -> dict[str, jax.Array]:
+        return {name: sensordata[..., s] for name, s in self._sensor_slices.items()}
+
+    def observation(self, sens: dict[str, jax.Array]) -> jax.Array:
+        """25 numbers: grip pos, object pos, object - grip, finger pos (2), object rotation
+        (euler), object lin/ang velocity, grip velocity, finger velocities (2)."""
+        fingers = jnp.concatenate([sens["finger_l_pos"], sens["finger_r_pos"]], axis=-1)
+        finger_vel = jnp.concatenate([sens["finger_l_vel"], sens["finger_r_vel"]], axis=-1)
+        return jnp.concatenate(
+            [
+                sens["grip_pos"], sens["object_pos"], sens["object_pos"] - sens["grip_pos"],
+                fingers, quat_to_euler(sens["object_quat"]), sens["object_linvel"],
+                sens["object_angvel"], sens["grip_linvel"], finger_vel,
+            ],
+            axis=-1,
+        )  # fmt: skip
+
+    def grasped(self, sens: dict[str, jax.Array]) -> jax.Array:
+        """Object between the pads and both fingers stopped by it (not closed on air)."""
+        rel = sens["object_pos"] - sens["grip_pos"]
+        near = (jnp.linalg.norm(rel[..., :2], axis=-1) < 0.015) & (jnp.abs(rel[..., 2]) < 0.025)
+        q = jnp.concatenate([sens["finger_l_pos"], sens["finger_r_pos"]], axis=-1)
+        blocked = jnp.all((q > 0.25 * self.object_half) & (q < 0.98 * FINGER_OPEN), axis=-1)
+        return near & blocked
+
+    # ------------------------------------------------------------------ task hooks
+    def sample_start(self, key: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+        """-> (grip start (3,), object position (3,), desired goal (3,))."""
+        raise NotImplementedError
+
+    def achieved_goal(self, sens: dict[str, jax.Array]) -> jax.Array:
+        return sens["object_pos"] if self.goal_is_object else sens["grip_pos"]
+
+    def is_success(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array:
+        return jnp.linalg.norm(achieved_goal - desired_goal, axis=-1) < self.threshold
+
+    def compute_reward(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array:
+        """Sparse reward: 0 on success, -1 otherwise. Pure; HER calls it on relabelled goals."""
+        return self.is_success(achieved_goal, desired_goal).astype(jnp.float32) - 1.0
+
+    # ------------------------------------------------------------------ sampling helpers
+    def sample_workspace(self, key: jax.Array, low=None, high=None) -> jax.Array:
+        low = self.workspace_low if low is None else low
+        high = self.workspace_high if high is None else high
+        return jax.random.uniform(key, (3,), minval=low, maxval=high)
+
+    def sample_on_table(self, key: jax.Array, xy_low, xy_high) -> jax.Array:
+        xy = jax.random.uniform(key, (2,), minval=jnp.asarray(xy_low), maxval=jnp.asarray(xy_high))
+        return jnp.concatenate([xy, jnp.array([self.table_z + self.object_half])])
+
+    # ------------------------------------------------------------------ reset / step
+    def _object_qpos_qvel(self, physics: PhysicsState, object_pos: jax.Array):
+        qpos = self.backend.qpos(physics)
+        qvel = self.backend.qvel(physics)
+        pose = jnp.concatenate([object_pos, jnp.array([1.0, 0.0, 0.0, 0.0])])
+        qpos = qpos.at[self._object_qpos : self._object_qpos + 7].set(pose)
+        qvel = qvel.at[self._object_qvel : self._object_qvel + 6].set(0.0)
+        return qpos, qvel
+
+    def place(self, grip: jax.Array, object_pos: jax.Array) -> PhysicsState:
+        """Physics state with the grip point at `grip` and the object at `object_pos`.
+
+        The weld carries the arm from home to `grip` with the object parked out of reach,
+        then the object is put in place (and, for held starts, the fingers close on it).
+        """
+        cfg = self.config
+        qpos = jnp.zeros(self.model.nq).at[:7].set(self._home_qpos)
+        qpos = qpos.at[self._object_qpos : self._object_qpos + 7].set(
+            jnp.concatenate([jnp.asarray(PARKED_OBJECT, jnp.float32), jnp.array([1.0, 0, 0, 0])])
+        )
+        physics = self.backend.init(qpos, jnp.zeros(self.model.nv))
+        open_ctrl = jnp.full((2,), FINGER_OPEN)
+        physics = self.backend.step(physics, open_ctrl, grip, cfg.settle_substeps)
+        physics = self.backend.set_qpos_qvel(physics, *self._object_qpos_qvel(physics, object_pos))
+        if self.grasped_start:
+            closed = jnp.full((2,), FINGER_CLOSED_CTRL)
+            return self.backend.step(physics, closed, grip, cfg.grasp_settle_substeps)
+        # One substep so that sensordata describes the placed state.
+        return self.backend.step(physics, open_ctrl, grip, 1)
+
+    def reset(self, key: jax.Array) -> State:
+        grip, object_pos, goal = self.sample_start(key)
+        physics = self.place(grip, object_pos)
+        zero = jnp.zeros((), jnp.float32)
+        info = {"step": jnp.zeros((), jnp.int32), "start_physics": physics}
+        state = State(
+            physics=physics, obs=jnp.zeros(self.obs_dim), achieved_goal=jnp.zeros(3),
+            desired_goal=goal, reward=zero, done=jnp.zeros((), bool),
+            metrics={"success": zero, "distance": zero, "invalid_actions": zero, "physics_resets": zero},
+            info=info,
+        )  # fmt: skip
+        return self._observe(state, physics, state.metrics)
+
+    def _observe(self, state: State, physics: PhysicsState, metrics: dict) -> State:
+        sens = self.sensors(physics.sensordata)
+        achieved = self.achieved_goal(sens)
+        success = self.is_success(achieved, state.desired_goal)
+        distance = jnp.linalg.norm(achieved - state.desired_goal)
+        metrics = {**metrics, "success": success.astype(jnp.float32), "distance": distance}
+        info = {**state.info, "grasped": self.grasped(sens)}
+        return state.replace(
+            physics=physics, obs=self.observation(sens), achieved_goal=achieved,
+            reward=success.astype(jnp.float32) - 1.0, metrics=metrics, info=info,
+        )  # fmt: skip
+
+    def action_to_controls(self, grip_pos: jax.Array, action: jax.Array):
+        """-> (finger ctrl (2,), mocap target (3,)): the target moves from where the grip
+        is by action * 5 cm, clipped to the workspace; the gripper command maps [-1, 1]
+        to [closed and squeezing, fully open]."""
+        target = jnp.clip(
+            grip_pos + self.config.action_scale * action[:3], self.workspace_low, self.workspace_high
+        )
+        opening = FINGER_CLOSED_CTRL + (action[3] + 1.0) * 0.5 * (FINGER_OPEN - FINGER_CLOSED_CTRL)
+        return jnp.full((2,), opening), target
+
+    def step(self, state: State, action: jax.Array) -> State:
+        # NaN actions become 0 and out-of-range ones are clipped; both are counted.
+        finite = jnp.isfinite(action)
+        invalid = jnp.any(~finite | (jnp.abs(action) > 1.0)).astype(jnp.float32)
+        action = jnp.clip(jnp.where(finite, action, 0.0), -1.0, 1.0)
+        grip_pos = self.sensors(state.physics.sensordata)["grip_pos"]
+        ctrl, target = self.action_to_controls(grip_pos, action)
+        physics = self.backend.step(state.physics, ctrl, target, self.config.n_substeps)
+        # A diverged env goes back to its episode's start state, never poisoning the batch.
+        diverged = ~jnp.all(jnp.isfinite(physics.sensordata)) | ~jnp.all(
+            jnp.abs(self.backend.qvel(physics)) < self.config.max_qvel
+        )
+        physics = jax.tree.map(
+            lambda start, new: jnp.where(diverged, start, new), state.info["start_physics"], physics
+        )
+        step = state.info["step"] + 1
+        metrics = {
+            **state.metrics,
+            "invalid_actions": state.metrics["invalid_actions"] + invalid,
+            "physics_resets": state.metrics["physics_resets"] + diverged.astype(jnp.float32),
+        }
+        state = state.replace(info={**state.info, "step": step}, done=step >= self.episode_length)
+        return self._observe(state, physics, metrics)

@@ -1,0 +1,39 @@
+"""One registry of every env: `make(name, **config_overrides)`."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from mjx_skills.config import EnvConfig
+from mjx_skills.envs.baxter import BaxterEnv
+from mjx_skills.envs.skills import Grasp, Transfer, Transit
+from mjx_skills.envs.tasks import ContainerWall, PickMove, PutInContainer, PutOn, TakeOut
+
+ENVS: dict[str, type[BaxterEnv]] = {
+    "transit": Transit,
+    "grasp": Grasp,
+    "transfer": Transfer,
+    "pick_move": PickMove,
+    "put_in_container": PutInContainer,
+    "put_on": PutOn,
+    "take_out": TakeOut,
+    "container_wall": ContainerWall,
+}
+SKILLS = ("transit", "grasp", "transfer")
+TASKS = ("pick_move", "put_in_container", "put_on", "take_out", "container_wall")
+
+
+def check_name(name: str) -> None:
+    if name not in ENVS:
+        raise ValueError(f"unknown env {name!r}; valid envs: {', '.join(ENVS)}")
+
+
+def make(name: str, config: EnvConfig | None = None, **overrides) -> BaxterEnv:
+    """Build env `name` from `config` (default EnvConfig) with field overrides."""
+    check_name(name)
+    config = config or EnvConfig()
+    fields = {f.name for f in dataclasses.fields(EnvConfig)}
+    unknown = set(overrides) - fields
+    if unknown:
+        raise ValueError(f"unknown EnvConfig field(s) {sorted(unknown)}; valid: {sorted(fields)}")
+    return ENVS[name](dataclasses.replace(config, **overrides))

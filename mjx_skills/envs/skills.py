@@ -1,0 +1,101 @@
+"""The three skills of the library (thesis ch. 3): transit, grasp, transfer.
+
+Each skill env also declares what the skill library needs: the box its goal parameters
+map into from [-1, 1] (`goal_from_param`), which observation dimensions the skill uses
+(`state_dims`), and when a running skill stops (`terminated`).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from mjx_skills.envs.baxter import BaxterEnv
+
+# Observation layout (see BaxterEnv.observation).
+GRIP_POS = (0, 1, 2)
+GRIP_VEL = (19, 20, 21)
+OBJECT_POS = (3, 4, 5)
+OBJECT_REGION = ((0.55, -0.45), (0.85, 0.05))
+
+
+def _lerp(param: jax.Array, low, high) -> jax.Array:
+    """[-1, 1] -> [low, high]."""
+    low, high = jnp.asarray(low), jnp.asarray(high)
+    return low + (jnp.clip(param, -1.0, 1.0) + 1.0) * 0.5 * (high - low)
+
+
+class Transit(BaxterEnv):
+    """Move the empty gripper to a 3-D target within 3 cm (20 steps)."""
+
+    default_episode_length = 20
+    goal_is_object = False
+    param_dim = 3
+    state_dims = GRIP_POS + GRIP_VEL
+
+    def sample_start(self, key):
+        k_grip, k_obj, k_goal = jax.random.split(key, 3)
+        return (
+            self.sample_workspace(k_grip),
+            self.sample_on_table(k_obj, *OBJECT_REGION),
+            self.sample_workspace(k_goal),
+        )
+
+    def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
+        return _lerp(param, self.workspace_low, self.workspace_high)
+
+    def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        return self.is_success(obs[jnp.array(GRIP_POS)], goal)
+
+
+class Grasp(BaxterEnv):
+    """From within 5 cm of the cube, grasp it and lift it 5-8 cm (20 steps)."""
+
+    default_episode_length = 20
+    param_dim = 1
+    lift_range = (0.05, 0.08)
+    state_dims = tuple(range(25))
+
+    def sample_start(self, key):
+        k_obj, k_dz, k_r, k_a, k_h = jax.random.split(key, 5)
+        obj = self.sample_on_table(k_obj, *OBJECT_REGION)
+        # The grip starts above the cube (pads clear of its top face) within 5 cm of it.
+        dz = jax.random.uniform(k_dz, (), minval=0.03, maxval=0.045)
+        radius = jnp.sqrt(0.05**2 - dz**2) * jnp.sqrt(jax.random.uniform(k_r, ()))
+        angle = jax.random.uniform(k_a, (), minval=0.0, maxval=2 * jnp.pi)
+        grip = obj + jnp.stack([radius * jnp.cos(angle), radius * jnp.sin(angle), dz])
+        lift = jax.random.uniform(k_h, (), minval=self.lift_range[0], maxval=self.lift_range[1])
+        return grip, obj, obj + jnp.array([0.0, 0.0, 1.0]) * lift
+
+    def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
+        lift = _lerp(param[..., 0], *self.lift_range)
+        return obs[..., 3:6] + jnp.stack([0.0 * lift, 0.0 * lift, lift], axis=-1)
+
+    def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        return self.is_success(obs[..., 3:6], goal)
+
+
+class Transfer(BaxterEnv):
+    """Carry the held cube to a 3-D target within 3 cm (10 steps)."""
+
+    default_episode_length = 10
+    grasped_start = True
+    param_dim = 3
+    state_dims = tuple(range(25))
+
+    def object_goal_box(self):
+        low = self.workspace_low.at[2].set(self.table_z + self.object_half)
+        return low, self.workspace_high
+
+    def sample_start(self, key):
+        k_grip, k_goal = jax.random.split(key)
+        # The held cube's bottom starts at least 2 cm above the table.
+        grip_low = self.workspace_low.at[2].set(self.table_z + self.object_half + 0.02)
+        grip = self.sample_workspace(k_grip, low=grip_low)
+        return grip, grip, self.sample_workspace(k_goal, *self.object_goal_box())
+
+    def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
+        return _lerp(param, *self.object_goal_box())
+
+    def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        return self.is_success(obs[..., 3:6], goal)
