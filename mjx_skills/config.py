@@ -52,7 +52,11 @@ class DDPGConfig:
     """Share of sampled transitions whose goal is relabelled (future k = 4 -> 0.8)."""
 
     def __post_init__(self) -> None:
-        _check(len(self.hidden) > 0 and all(h > 0 for h in self.hidden), "hidden", "need >= 1 positive width")
+        _check(
+            len(self.hidden) > 0 and all(h > 0 for h in self.hidden),
+            "hidden",
+            "need >= 1 positive width",
+        )
         for name in ("actor_lr", "critic_lr", "batch_size"):
             _check(getattr(self, name) > 0, name, "must be > 0")
         _check(0.0 < self.gamma < 1.0, "gamma", "must lie in (0, 1)")
@@ -114,3 +118,59 @@ class EnvConfig:
         _check(self.native_threads >= 0, "native_threads", "must be >= 0")
         _check(self.episode_length >= 0, "episode_length", "must be >= 0 (0 = task default)")
         _check(self.distance_threshold >= 0, "distance_threshold", "must be >= 0 (0 = default)")
+
+
+METHODS = ("ddpg_her",)
+"""Methods the trainer runs. PAS, MPAS and DDPG+HER+SL build on the skill library."""
+PLANNED_METHODS = ("pas", "mpas", "ddpg_her_sl")
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    """One training run: task, method, budget, seeds and where results go."""
+
+    task: str = "pick_move"
+    """Env to train on (see mjx_skills.envs.ENVS)."""
+    method: str = "ddpg_her"
+    """Learning method: ddpg_her (pas, mpas and ddpg_her_sl come with the skill library)."""
+    epochs: int = 50
+    """Epochs to train; 1 epoch = envs x cycles episodes of interaction (thesis: 16)."""
+    seeds: int = 1
+    """Independent seeds trained in one program (a vmap axis over the whole run)."""
+    seed: int = 0
+    """First seed; seeds are seed, seed + 1, ..."""
+    envs: int = 4
+    """Episodes collected in parallel per cycle."""
+    cycles: int = 4
+    """Collect-then-train cycles per epoch (envs x cycles = 16 episodes, as the thesis)."""
+    updates_per_cycle: int = 40
+    """Gradient steps after each cycle's episodes (original code: 40)."""
+    eval_episodes: int = 20
+    """Evaluation episodes per epoch with the frozen deterministic policy (thesis: 20)."""
+    replay_capacity: int = 1_000_000
+    """Replay buffer capacity in transitions (Table 6.1: 1e6)."""
+    checkpoint_every: int = 10
+    """Save the whole run state every N epochs (and on Ctrl-C and at the end)."""
+    out: str = "runs"
+    """Results go to OUT/<task>/<method>/<timestamp>/."""
+    progress: bool = True
+    """Draw a progress bar."""
+
+    def __post_init__(self) -> None:
+        from mjx_skills.envs.registry import ENVS
+
+        _check(self.task in ENVS, "task", f"unknown task {self.task!r}; valid: {', '.join(ENVS)}")
+        if self.method in PLANNED_METHODS:
+            raise NotImplementedError(
+                f"method {self.method!r} needs the skill library, not built yet; available: "
+                + ", ".join(METHODS)
+            )
+        _check(
+            self.method in METHODS,
+            "method",
+            f"unknown method {self.method!r}; valid: {', '.join(METHODS + PLANNED_METHODS)}",
+        )
+        for name in ("epochs", "seeds", "envs", "cycles", "eval_episodes", "checkpoint_every"):
+            _check(getattr(self, name) >= 1, name, "must be >= 1")
+        _check(self.updates_per_cycle >= 0, "updates_per_cycle", "must be >= 0")
+        _check(self.replay_capacity >= 1, "replay_capacity", "must be >= 1")

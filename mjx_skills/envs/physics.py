@@ -42,15 +42,18 @@ class PhysicsBackend(Protocol):
 
     def init(self, qpos: jax.Array, qvel: jax.Array) -> PhysicsState: ...
 
-    def step(
-        self, state: PhysicsState, ctrl: jax.Array, mocap_pos: jax.Array, n_substeps: int
-    ) -> PhysicsState: ...
+    def step(self, state: PhysicsState, ctrl: jax.Array, mocap_path: jax.Array) -> PhysicsState:
+        """Advance len(mocap_path) substeps; ctrl (nu,) is held, the mocap body follows
+        mocap_path (n_substeps, 3)."""
+        ...
 
     def qpos(self, state: PhysicsState) -> jax.Array: ...
 
     def qvel(self, state: PhysicsState) -> jax.Array: ...
 
-    def set_qpos_qvel(self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array) -> PhysicsState: ...
+    def set_qpos_qvel(
+        self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array
+    ) -> PhysicsState: ...
 
 
 class MjxBackend:
@@ -67,15 +70,11 @@ class MjxBackend:
         data = self._data0.replace(qpos=qpos, qvel=qvel)
         return PhysicsState(data=data, sensordata=jnp.zeros(self.model.nsensordata, jnp.float32))
 
-    def step(
-        self, state: PhysicsState, ctrl: jax.Array, mocap_pos: jax.Array, n_substeps: int
-    ) -> PhysicsState:
-        data = state.data.replace(ctrl=ctrl, mocap_pos=mocap_pos.reshape(-1, 3))
+    def step(self, state: PhysicsState, ctrl: jax.Array, mocap_path: jax.Array) -> PhysicsState:
+        def substep(d, mocap_pos):
+            return mjx.step(self.mjx_model, d.replace(mocap_pos=mocap_pos.reshape(-1, 3))), None
 
-        def substep(d, _):
-            return mjx.step(self.mjx_model, d), None
-
-        data, _ = jax.lax.scan(substep, data, None, length=n_substeps)
+        data, _ = jax.lax.scan(substep, state.data.replace(ctrl=ctrl), mocap_path)
         return PhysicsState(data=data, sensordata=data.sensordata)
 
     def qpos(self, state: PhysicsState) -> jax.Array:
@@ -117,10 +116,10 @@ class NativeBackend:
         state = state.at[self._qpos_slice].set(qpos).at[self._qvel_slice].set(qvel)
         return PhysicsState(data=state, sensordata=jnp.zeros(self.model.nsensordata, jnp.float32))
 
-    def step(
-        self, state: PhysicsState, ctrl: jax.Array, mocap_pos: jax.Array, n_substeps: int
-    ) -> PhysicsState:
-        control = jnp.concatenate([ctrl, mocap_pos.reshape(-1)]).astype(jnp.float32)
+    def step(self, state: PhysicsState, ctrl: jax.Array, mocap_path: jax.Array) -> PhysicsState:
+        n_substeps = mocap_path.shape[0]
+        ctrl = jnp.broadcast_to(ctrl, (n_substeps, ctrl.shape[-1]))
+        control = jnp.concatenate([ctrl, mocap_path.reshape(n_substeps, -1)], axis=-1)
         out_shape = (
             jax.ShapeDtypeStruct(state.data.shape, jnp.float32),
             jax.ShapeDtypeStruct((self.model.nsensordata,), jnp.float32),
@@ -129,7 +128,7 @@ class NativeBackend:
             lambda s, c: self._rollout_host(s, c, n_substeps),
             out_shape,
             state.data,
-            control,
+            control.astype(jnp.float32),
             vmap_method="broadcast_all",
         )
         return PhysicsState(data=new_state, sensordata=sensordata)
@@ -137,7 +136,7 @@ class NativeBackend:
     def _rollout_host(self, state: np.ndarray, control: np.ndarray, n_substeps: int):
         lead = state.shape[:-1]
         state64 = np.asarray(state, np.float64).reshape(-1, self.nstate)
-        control64 = np.asarray(control, np.float64).reshape(state64.shape[0], 1, -1)
+        control64 = np.asarray(control, np.float64).reshape(state64.shape[0], n_substeps, -1)
         with self._lock:
             if self._pool is None:
                 states, sensors = rollout.rollout(

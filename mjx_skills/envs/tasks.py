@@ -43,10 +43,16 @@ class PutInContainer(BaxterEnv):
         floor = self.table_z + 0.01  # the container's bottom plate is 1 cm thick
         self.goal = jnp.array([*CONTAINER_XY, floor + self.object_half])
 
+    def sample_grip_start(self, key):
+        """Above the walls (and on the cubes' side of them), so that the reset's move from
+        home never drags the gripper through a wall."""
+        low = self.workspace_low.at[1].set(-0.25).at[2].set(self.table_z + 0.12)
+        return self.sample_workspace(key, low=low)
+
     def sample_start(self, key):
         k_grip, k_obj = jax.random.split(key)
         obj = self.sample_on_table(k_obj, *TASK_OBJECT_REGION)
-        return self.sample_workspace(k_grip), obj, self.goal
+        return self.sample_grip_start(k_grip), obj, self.goal
 
     def is_success(self, achieved_goal, desired_goal):
         delta = achieved_goal - desired_goal
@@ -85,11 +91,14 @@ class TakeOut(PutInContainer):
     def sample_start(self, key):
         k_grip, k_obj, k_goal = jax.random.split(key, 3)
         centre = jnp.asarray(CONTAINER_XY)
-        obj_xy = centre + jax.random.uniform(k_obj, (2,), minval=-0.04, maxval=0.04)
+        # +-2.5 cm keeps the open fingers (7 cm wide) clear of the walls above the cube.
+        obj_xy = centre + jax.random.uniform(k_obj, (2,), minval=-0.025, maxval=0.025)
         obj = jnp.concatenate([obj_xy, self.goal[2:]])
         goal_xy = centre + jax.random.uniform(k_goal, (2,), minval=-0.05, maxval=0.05)
-        goal_z = self.table_z + jax.random.uniform(jax.random.fold_in(k_goal, 1), (1,), minval=0.1, maxval=0.25)
-        return self.sample_workspace(k_grip), obj, jnp.concatenate([goal_xy, goal_z])
+        goal_z = self.table_z + jax.random.uniform(
+            jax.random.fold_in(k_goal, 1), (1,), minval=0.1, maxval=0.25
+        )
+        return self.sample_grip_start(k_grip), obj, jnp.concatenate([goal_xy, goal_z])
 
     def is_success(self, achieved_goal, desired_goal):
         return BaxterEnv.is_success(self, achieved_goal, desired_goal)

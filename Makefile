@@ -1,0 +1,55 @@
+# mjx_skills: every target creates the environment first if it is missing.
+PY      ?= python3
+VENV    := .venv
+BIN     := $(VENV)/bin
+STAMP   := $(VENV)/.stamp-setup
+TASK    ?= pick_move
+METHOD  ?= ddpg_her
+EPOCHS  ?= 50
+SEEDS   ?= 1
+OUT     ?= runs
+ARGS    ?=
+
+.PHONY: setup train skills sweep bench test test-fast lint notebook clean
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -d $(VENV) || $(PY) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[dev,notebook]'
+	touch $(STAMP)
+
+train: setup
+	$(BIN)/python -m mjx_skills.train --task $(TASK) --method $(METHOD) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
+
+skills: setup
+	@test -f mjx_skills/library.py || { echo "make skills: the skill library (mjx_skills/library.py) is not built yet"; exit 1; }
+	$(BIN)/python -m mjx_skills.library $(ARGS)
+
+sweep: setup
+	@test -f mjx_skills/sweep.py || { echo "make sweep: mjx_skills/sweep.py is not built yet"; exit 1; }
+	$(BIN)/python -m mjx_skills.sweep $(ARGS)
+
+bench: setup
+	$(BIN)/python benchmarks/physics.py
+	@test -f benchmarks/train_throughput.py && $(BIN)/python benchmarks/train_throughput.py || echo "make bench: benchmarks/train_throughput.py is not built yet"
+
+# The whole suite, learning tests included (what CI runs).
+test: setup
+	$(BIN)/python -m pytest -q tests
+
+# Skips the long learning tests (marked slow).
+test-fast: setup
+	$(BIN)/python -m pytest -q -m "not slow" tests
+
+lint: setup
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+notebook: setup
+	@test -f experiments/analysis.ipynb || { echo "make notebook: experiments/analysis.ipynb is not written yet"; exit 1; }
+	$(BIN)/jupyter notebook experiments/analysis.ipynb
+
+clean:
+	rm -rf $(VENV) .pytest_cache .ruff_cache build *.egg-info

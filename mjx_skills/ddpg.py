@@ -1,0 +1,185 @@
+"""DDPG with goal-conditioned actor and critic (the learner of DDPG + HER).
+
+`config` (a frozen, hashable DDPGConfig) is never part of the pytree: close over it or
+pass it as a static argument, e.g. `jax.jit(functools.partial(update, config=config))`.
+All inputs are normalised with the state's running statistics before the networks.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from mjx_skills import normalizer
+from mjx_skills.config import DDPGConfig
+from mjx_skills.nets import Actor, Critic
+
+Params = dict
+
+
+@struct.dataclass
+class DDPGState:
+    actor_params: Params
+    critic_params: Params
+    target_actor_params: Params
+    target_critic_params: Params
+    actor_opt_state: optax.OptState
+    critic_opt_state: optax.OptState
+    obs_norm: normalizer.NormState
+    goal_norm: normalizer.NormState
+    steps: jax.Array
+    """() int32 number of `update` calls."""
+    act_dim: int = struct.field(pytree_node=False)
+    """Action dimension, static: the actor module needs it to be rebuilt."""
+
+
+def _actor(act_dim: int, config: DDPGConfig) -> Actor:
+    return Actor(act_dim=act_dim, hidden=tuple(config.hidden), layer_norm=config.layer_norm)
+
+
+def _critic(config: DDPGConfig) -> Critic:
+    return Critic(hidden=tuple(config.hidden), layer_norm=config.layer_norm)
+
+
+def _actor_opt(config: DDPGConfig) -> optax.GradientTransformation:
+    return optax.adam(config.actor_lr)
+
+
+def _critic_opt(config: DDPGConfig) -> optax.GradientTransformation:
+    return optax.adam(config.critic_lr)
+
+
+def init(
+    key: jax.Array, obs_dim: int, goal_dim: int, act_dim: int, config: DDPGConfig
+) -> DDPGState:
+    """Fresh networks (targets equal to the online ones), Adam states, empty normalisers."""
+    k_actor, k_critic = jax.random.split(key)
+    obs = jnp.zeros((1, obs_dim), jnp.float32)
+    goal = jnp.zeros((1, goal_dim), jnp.float32)
+    action = jnp.zeros((1, act_dim), jnp.float32)
+    actor_params = _actor(act_dim, config).init(k_actor, obs, goal)
+    critic_params = _critic(config).init(k_critic, obs, goal, action)
+    return DDPGState(
+        actor_params=actor_params,
+        critic_params=critic_params,
+        target_actor_params=actor_params,
+        target_critic_params=critic_params,
+        actor_opt_state=_actor_opt(config).init(actor_params),
+        critic_opt_state=_critic_opt(config).init(critic_params),
+        obs_norm=normalizer.init(obs_dim),
+        goal_norm=normalizer.init(goal_dim),
+        steps=jnp.zeros((), jnp.int32),
+        act_dim=act_dim,
+    )
+
+
+def _norm_inputs(
+    state: DDPGState, obs: jax.Array, goal: jax.Array, config: DDPGConfig
+) -> tuple[jax.Array, jax.Array]:
+    o = normalizer.normalize(state.obs_norm, obs, config.norm_clip, config.norm_eps)
+    g = normalizer.normalize(state.goal_norm, goal, config.norm_clip, config.norm_eps)
+    return o, g
+
+
+def act(state: DDPGState, obs: jax.Array, goal: jax.Array, config: DDPGConfig) -> jax.Array:
+    """Deterministic policy: (..., obs_dim), (..., goal_dim) -> (..., act_dim) in [-1, 1]."""
+    o, g = _norm_inputs(state, obs, goal, config)
+    return _actor(state.act_dim, config).apply(state.actor_params, o, g)
+
+
+def explore(
+    state: DDPGState, key: jax.Array, obs: jax.Array, goal: jax.Array, config: DDPGConfig
+) -> jax.Array:
+    """Exploration action (..., act_dim): policy + N(0, noise_sigma^2) clipped to [-1, 1];
+    with probability random_eps a uniform random action in [-1, 1] instead."""
+    k_noise, k_rand, k_pick = jax.random.split(key, 3)
+    a = act(state, obs, goal, config)
+    a = jnp.clip(a + config.noise_sigma * jax.random.normal(k_noise, a.shape), -1.0, 1.0)
+    random_a = jax.random.uniform(k_rand, a.shape, minval=-1.0, maxval=1.0)
+    pick_random = jax.random.uniform(k_pick, a.shape[:-1]) < config.random_eps
+    return jnp.where(pick_random[..., None], random_a, a)
+
+
+def q_value(
+    state: DDPGState, obs: jax.Array, goal: jax.Array, action: jax.Array, config: DDPGConfig
+) -> jax.Array:
+    """Online critic Q: (..., obs_dim), (..., goal_dim), (..., act_dim) -> (...)."""
+    o, g = _norm_inputs(state, obs, goal, config)
+    return _critic(config).apply(state.critic_params, o, g, action)
+
+
+def update_normalizers(state: DDPGState, obs: jax.Array, goal: jax.Array) -> DDPGState:
+    """Add observations (..., obs_dim) and goals (..., goal_dim) to the running statistics."""
+    return state.replace(
+        obs_norm=normalizer.update(state.obs_norm, obs),
+        goal_norm=normalizer.update(state.goal_norm, goal),
+    )
+
+
+def td_target(state: DDPGState, batch: dict[str, jax.Array], config: DDPGConfig) -> jax.Array:
+    """(B,) critic target r + gamma * Q_target(s', g, pi_target(s', g)), optionally clipped to
+    [-1 / (1 - gamma), 0] (no terminal masking: episodes end by time limit only)."""
+    o2, g = _norm_inputs(state, batch["next_obs"], batch["goal"], config)
+    a2 = _actor(state.act_dim, config).apply(state.target_actor_params, o2, g)
+    q2 = _critic(config).apply(state.target_critic_params, o2, g, a2)
+    reward = batch["reward"]
+    if reward.shape != q2.shape:  # (B, 1) rewards would silently broadcast to (B, B)
+        raise ValueError(f"reward shape {reward.shape} != Q shape {q2.shape}")
+    y = reward + config.gamma * q2
+    if config.clip_target:
+        y = jnp.clip(y, -1.0 / (1.0 - config.gamma), 0.0)
+    return jax.lax.stop_gradient(y)
+
+
+def update(
+    state: DDPGState, batch: dict[str, jax.Array], config: DDPGConfig
+) -> tuple[DDPGState, dict[str, jax.Array]]:
+    """One critic step, one actor step (against the new critic), one soft target update.
+
+    batch: obs / next_obs (B, obs_dim), goal (B, goal_dim), action (B, act_dim), reward (B,).
+    Returns the new state and scalar metrics critic_loss, actor_loss, q_mean.
+    """
+    actor, critic = _actor(state.act_dim, config), _critic(config)
+    o, g = _norm_inputs(state, batch["obs"], batch["goal"], config)
+    y = td_target(state, batch, config)
+
+    def critic_loss_fn(params: Params) -> tuple[jax.Array, jax.Array]:
+        q = critic.apply(params, o, g, batch["action"])
+        return jnp.mean((q - y) ** 2), q
+
+    (critic_loss, q), c_grads = jax.value_and_grad(critic_loss_fn, has_aux=True)(
+        state.critic_params
+    )
+    c_updates, critic_opt_state = _critic_opt(config).update(
+        c_grads, state.critic_opt_state, state.critic_params
+    )
+    critic_params = optax.apply_updates(state.critic_params, c_updates)
+
+    def actor_loss_fn(params: Params) -> jax.Array:
+        pi = actor.apply(params, o, g)
+        q_pi = critic.apply(critic_params, o, g, pi)
+        # The L2 term keeps actions off tanh's flat saturated tails.
+        return -jnp.mean(q_pi) + config.action_l2 * jnp.mean(pi**2)
+
+    actor_loss, a_grads = jax.value_and_grad(actor_loss_fn)(state.actor_params)
+    a_updates, actor_opt_state = _actor_opt(config).update(
+        a_grads, state.actor_opt_state, state.actor_params
+    )
+    actor_params = optax.apply_updates(state.actor_params, a_updates)
+
+    def soft(target: Params, online: Params) -> Params:
+        return jax.tree.map(lambda t, p: (1.0 - config.tau) * t + config.tau * p, target, online)
+
+    new_state = state.replace(
+        actor_params=actor_params,
+        critic_params=critic_params,
+        target_actor_params=soft(state.target_actor_params, actor_params),
+        target_critic_params=soft(state.target_critic_params, critic_params),
+        actor_opt_state=actor_opt_state,
+        critic_opt_state=critic_opt_state,
+        steps=state.steps + 1,
+    )
+    metrics = {"critic_loss": critic_loss, "actor_loss": actor_loss, "q_mean": jnp.mean(q)}
+    return new_state, metrics

@@ -1,0 +1,105 @@
+"""Scripted controllers: move above, descend, close, lift, carry, (detour,) release.
+
+They prove that the physics and predicates allow every task (tests/test_solvable.py) and
+serve as baselines and demos. Stateless: each action is a pure function of (obs, goal),
+so they vmap and run inside the same jitted rollouts as the learned policies.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+
+from mjx_skills.envs.baxter import BaxterEnv, is_grasped
+from mjx_skills.envs.tasks import ContainerWall, PutInContainer, TakeOut
+
+OPEN, CLOSE = 1.0, -1.0
+APPROACH_HEIGHT = 0.035  # grip above the cube's centre before descending: pads clear its top
+
+
+def _toward(env: BaxterEnv, grip: jax.Array, target: jax.Array, gripper: jax.Array) -> jax.Array:
+    delta = jnp.clip((target - grip) / env.config.action_scale, -1.0, 1.0)
+    return jnp.concatenate([delta, jnp.reshape(gripper, (1,))])
+
+
+def holding(env: BaxterEnv, obs: jax.Array) -> jax.Array:
+    """The cube held, read from the observation (cf. BaxterEnv.grasped)."""
+    return is_grasped(obs[6:9], obs[9:11], env.object_half)
+
+
+def _detour(env: BaxterEnv, grip: jax.Array, target: jax.Array) -> jax.Array:
+    """ContainerWall: to cross the tall wall's line (y = -0.28), go round its end (x < 0.55)."""
+    wall_y, pass_x, safe_z = -0.28, 0.515, env.table_z + 0.14
+    crossing = jnp.sign(grip[1] - wall_y) != jnp.sign(target[1] - wall_y)
+    beside = jnp.where(
+        grip[0] > pass_x + 0.01,
+        jnp.array([pass_x, grip[1], safe_z]),
+        jnp.array([pass_x, target[1], safe_z]),
+    )
+    return jnp.where(crossing, beside, target)
+
+
+def _carry_target(env: BaxterEnv, obs: jax.Array, goal: jax.Array, place: bool) -> jax.Array:
+    """Grip target that brings the held cube to the goal (the cube may sit off-centre in
+    the grip); place tasks carry above the walls first and then descend."""
+    offset = obs[6:9]  # object - grip
+    if place:
+        safe = jnp.array([goal[0], goal[1], jnp.maximum(goal[2], env.table_z + 0.14)])
+        far = jnp.linalg.norm(obs[3:5] - goal[:2]) > 0.015
+        goal = jnp.where(far, safe, goal)
+    return goal - offset
+
+
+def make_scripted_policy(env: BaxterEnv) -> Callable[[jax.Array, jax.Array], jax.Array]:
+    """-> policy(obs (25,), goal (3,)) -> action (4,) for `env`'s task."""
+    if not env.goal_is_object:  # transit: go straight to the goal, fingers open
+
+        def transit(obs, goal):
+            return _toward(env, obs[0:3], goal, jnp.asarray(OPEN))
+
+        return transit
+    place = isinstance(env, PutInContainer) and not isinstance(env, TakeOut)
+    detour = isinstance(env, ContainerWall)
+
+    def policy(obs: jax.Array, goal: jax.Array) -> jax.Array:
+        grip, obj = obs[0:3], obs[3:6]
+        held = holding(env, obs)
+        # --- reach and grasp
+        # Approach at the current height (or higher), then descend straight down: no
+        # sweeping through walls or over the cube with the fingers low.
+        above = jnp.array([obj[0], obj[1], jnp.maximum(obj[2] + APPROACH_HEIGHT, grip[2])])
+        aligned = jnp.linalg.norm(obj[:2] - grip[:2]) < 0.008
+        at_object = aligned & (grip[2] - obj[2] < 0.006)
+        reach = jnp.where(aligned, obj, above)
+        reach_gripper = jnp.where(at_object, CLOSE, OPEN)
+        # --- carry (and release when placed)
+        carry = _carry_target(env, obs, goal, place)
+        placed = (jnp.linalg.norm(obj[:2] - goal[:2]) < 0.012) & (jnp.abs(obj[2] - goal[2]) < 0.012)
+        release = place & placed
+        carry_gripper = jnp.where(release, OPEN, CLOSE)
+        target = jnp.where(held, carry, reach)
+        gripper = jnp.where(held, carry_gripper, reach_gripper)
+        # once released on the goal: back off upwards with the fingers open
+        done = release & ~held
+        target = jnp.where(done, grip + jnp.array([0.0, 0.0, 0.05]), target)
+        gripper = jnp.where(done, OPEN, gripper)
+        if detour:
+            target = _detour(env, grip, target)
+        return _toward(env, grip, target, gripper)
+
+    return policy
+
+
+def rollout_scripted(env: BaxterEnv, key: jax.Array, n_episodes: int):
+    """Run the scripted policy for n_episodes in a batch -> final State (batched) and the
+    per-step success (T, n_episodes)."""
+    policy = jax.vmap(make_scripted_policy(env))
+    state = jax.vmap(env.reset)(jax.random.split(key, n_episodes))
+
+    def body(state, _):
+        state = jax.vmap(env.step)(state, policy(state.obs, state.desired_goal))
+        return state, state.metrics["success"]
+
+    return jax.lax.scan(body, state, None, length=env.episode_length)

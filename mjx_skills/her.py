@@ -1,0 +1,70 @@
+"""Hindsight experience replay: sample transitions and relabel their goals.
+
+The buffer's episodes must hold `obs` (T + 1, obs_dim), `ag` (T + 1, goal_dim),
+`g` (T, goal_dim) and `actions` (T, act_dim).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+
+from mjx_skills import replay
+
+STRATEGIES = ("future", "final", "episode", "none")
+
+RewardFn = Callable[[jax.Array, jax.Array], jax.Array]
+"""(..., goal_dim) achieved, (..., goal_dim) desired -> (...) 0.0 on success, -1.0 else."""
+
+
+def _goal_step(key: jax.Array, t: jax.Array, T: int, strategy: str) -> jax.Array:
+    """(B,) index into `ag` (0..T) of the hindsight goal for transitions at steps t (B,)."""
+    if strategy == "future":
+        # Uniform over t + 1..T in O(B): no per-transition masks over the episode.
+        u = jax.random.uniform(key, t.shape)
+        f = t + 1 + jnp.floor(u * (T - t)).astype(jnp.int32)
+        return jnp.minimum(f, T)  # guards u * (T - t) rounding up to T - t
+    if strategy == "final":
+        return jnp.full_like(t, T)
+    if strategy == "episode":
+        return jax.random.randint(key, t.shape, 0, T + 1).astype(t.dtype)
+    raise ValueError(f"unknown HER strategy '{strategy}', expected one of {STRATEGIES}")
+
+
+def sample_batch(
+    replay_state: replay.ReplayState,
+    key: jax.Array,
+    batch_size: int,
+    compute_reward: RewardFn,
+    strategy: str,
+    relabel_prob: float,
+) -> dict[str, jax.Array]:
+    """Sample `batch_size` transitions and relabel a `relabel_prob` share of their goals.
+
+    Returns obs / next_obs (B, obs_dim), goal / ag / next_ag (B, goal_dim), action
+    (B, act_dim) and reward (B,) = compute_reward(next_ag, goal), recomputed for every
+    transition. `batch_size`, `compute_reward` and `strategy` are static.
+    """
+    if strategy not in STRATEGIES:
+        raise ValueError(f"unknown HER strategy '{strategy}', expected one of {STRATEGIES}")
+    k_idx, k_goal, k_mask = jax.random.split(key, 3)
+    ep, t = replay.sample_indices(replay_state, k_idx, batch_size)
+    d = replay_state.data
+    ag = d["ag"][ep, t]
+    next_ag = d["ag"][ep, t + 1]
+    goal = d["g"][ep, t]
+    if strategy != "none":
+        f = _goal_step(k_goal, t, replay_state.T, strategy)
+        relabel = jax.random.uniform(k_mask, (batch_size,)) < relabel_prob
+        goal = jnp.where(relabel[:, None], d["ag"][ep, f], goal)
+    return {
+        "obs": d["obs"][ep, t],
+        "next_obs": d["obs"][ep, t + 1],
+        "goal": goal,
+        "action": d["actions"][ep, t],
+        "reward": compute_reward(next_ag, goal),
+        "ag": ag,
+        "next_ag": next_ag,
+    }

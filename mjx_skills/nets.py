@@ -1,0 +1,53 @@
+"""Flax networks: a generic MLP, the DDPG actor and critic.
+
+Every module maps over arbitrary leading axes (Dense and LayerNorm act on the last one), so
+the same parameters serve single examples, batches and vmapped envs.
+"""
+
+from __future__ import annotations
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+
+class MLP(nn.Module):
+    """(..., in) -> (..., out_dim): Dense -> [LayerNorm] -> ReLU per hidden layer, then Dense."""
+
+    hidden: tuple[int, ...]
+    layer_norm: bool
+    out_dim: int
+
+    @nn.compact
+    def __call__(self, x: jax.Array) -> jax.Array:
+        for width in self.hidden:
+            x = nn.Dense(width)(x)
+            if self.layer_norm:
+                x = nn.LayerNorm()(x)
+            x = nn.relu(x)
+        return nn.Dense(self.out_dim)(x)
+
+
+class Actor(nn.Module):
+    """pi(obs, goal): (..., obs_dim), (..., goal_dim) -> (..., act_dim) in [-1, 1]."""
+
+    act_dim: int
+    hidden: tuple[int, ...] = (64, 64, 64)
+    layer_norm: bool = True
+
+    @nn.compact
+    def __call__(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        x = jnp.concatenate([obs, goal], axis=-1)
+        return jnp.tanh(MLP(self.hidden, self.layer_norm, self.act_dim)(x))
+
+
+class Critic(nn.Module):
+    """Q(obs, goal, action): (..., obs_dim), (..., goal_dim), (..., act_dim) -> (...)."""
+
+    hidden: tuple[int, ...] = (64, 64, 64)
+    layer_norm: bool = True
+
+    @nn.compact
+    def __call__(self, obs: jax.Array, goal: jax.Array, action: jax.Array) -> jax.Array:
+        x = jnp.concatenate([obs, goal, action], axis=-1)
+        return MLP(self.hidden, self.layer_norm, 1)(x)[..., 0]

@@ -1,0 +1,17 @@
+"""Shared fixtures. Envs are built once per session: their compiled programs are shared."""
+
+import functools
+
+import pytest
+
+from mjx_skills.envs import make
+
+
+@functools.cache
+def cached_env(name: str, physics: str = "native"):
+    return make(name, physics=physics)
+
+
+@pytest.fixture(scope="session")
+def env_factory():
+    return cached_env

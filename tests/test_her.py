@@ -1,0 +1,148 @@
+"""HER sampling: relabelled goals come from the right steps of the same episode."""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjx_skills import her, replay
+
+T = 10
+N_FILLED = 12  # of 30 slots: sampling must stay within the filled ones
+N = 8192
+
+
+def make_episodes(ids: np.ndarray) -> dict[str, np.ndarray]:
+    """ag[t] = (id, t); desired goals (-id, -t) never equal an achieved goal (ids >= 1)."""
+    ids = np.asarray(ids, np.float32)
+    i1 = np.broadcast_to(ids[:, None], (len(ids), T + 1))
+    s1 = np.broadcast_to(np.arange(T + 1, dtype=np.float32), (len(ids), T + 1))
+    i, s = i1[:, :T], s1[:, :T]
+    return {
+        "obs": np.stack([i1, s1, -i1], axis=-1),
+        "ag": np.stack([i1, s1], axis=-1),
+        "g": np.stack([-i, -s], axis=-1),
+        "actions": np.stack([i, s], axis=-1),
+    }
+
+
+def compute_reward(achieved: jax.Array, desired: jax.Array) -> jax.Array:
+    return jnp.where(jnp.all(jnp.abs(achieved - desired) < 0.5, axis=-1), 0.0, -1.0)
+
+
+def _chi2_threshold(df: int, z: float = 5.0) -> float:
+    """Wilson-Hilferty approximation of the chi-square quantile at standard-normal z."""
+    c = 2.0 / (9.0 * df)
+    return df * (1.0 - c + z * np.sqrt(c)) ** 3
+
+
+@pytest.fixture(scope="module")
+def buffer() -> replay.ReplayState:
+    example = jax.tree.map(lambda x: x[0], make_episodes(np.array([1])))
+    state = replay.init(30 * T, example)
+    return replay.add(state, make_episodes(np.arange(1, N_FILLED + 1)))
+
+
+@functools.cache
+def sampler(strategy: str):
+    # relabel_prob stays traced, so each strategy compiles once.
+    return jax.jit(
+        functools.partial(her.sample_batch, compute_reward=compute_reward, strategy=strategy),
+        static_argnums=2,
+    )
+
+
+def sample(buffer, strategy: str, relabel_prob: float, seed: int = 0, n: int = N):
+    batch = sampler(strategy)(buffer, jax.random.key(seed), n, relabel_prob=relabel_prob)
+    return {k: np.asarray(v) for k, v in batch.items()}
+
+
+def check_common(batch: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Checks every strategy shares; returns episode ids, steps t and the relabel mask."""
+    ep, t = batch["obs"][:, 0], batch["obs"][:, 1]
+    assert batch["obs"].shape == (N, 3) and batch["goal"].shape == (N, 2)
+    assert batch["reward"].shape == (N,)
+    assert ep.min() >= 1 and ep.max() <= N_FILLED  # filled slots only
+    assert t.min() >= 0 and t.max() <= T - 1
+    np.testing.assert_array_equal(batch["next_obs"], np.stack([ep, t + 1, -ep], -1))
+    np.testing.assert_array_equal(batch["ag"], np.stack([ep, t], -1))
+    np.testing.assert_array_equal(batch["next_ag"], np.stack([ep, t + 1], -1))
+    np.testing.assert_array_equal(batch["action"], np.stack([ep, t], -1))
+    expected_reward = np.asarray(compute_reward(batch["next_ag"], batch["goal"]))
+    np.testing.assert_array_equal(batch["reward"], expected_reward)
+    relabelled = batch["goal"][:, 0] > 0
+    # Goals left alone are the episode's desired goal at t.
+    np.testing.assert_array_equal(batch["goal"][~relabelled], np.stack([-ep, -t], -1)[~relabelled])
+    # Any relabelled goal is an achieved goal of the same episode.
+    np.testing.assert_array_equal(batch["goal"][relabelled, 0], ep[relabelled])
+    return ep, t, relabelled
+
+
+def test_future(buffer):
+    batch = sample(buffer, "future", 0.8)
+    _, t, rel = check_common(batch)
+    assert abs(rel.mean() - 0.8) < 0.03
+    f = batch["goal"][rel, 1]
+    tr = t[rel]
+    assert np.all(f > tr) and np.all(f <= T)
+    # f is uniform over t + 1..T for every t: pooled chi-square over the per-t histograms.
+    stat, df = 0.0, 0
+    for step in range(T):
+        fs = f[tr == step].astype(int)
+        m = T - step
+        counts = np.bincount(fs - step - 1, minlength=m)
+        assert counts.size == m and np.all(counts > 0), (step, counts)
+        if m > 1:
+            expected = fs.size / m
+            stat += np.sum((counts - expected) ** 2 / expected)
+            df += m - 1
+    assert stat < _chi2_threshold(df), (stat, df)
+    # f = t + 1 makes the relabelled goal the next achieved goal: a success.
+    assert np.all(batch["reward"][rel & (batch["goal"][:, 1] == t + 1)] == 0.0)
+    assert np.any(batch["reward"] == 0.0) and np.any(batch["reward"] == -1.0)
+
+
+def test_final(buffer):
+    batch = sample(buffer, "final", 0.8)
+    _, t, rel = check_common(batch)
+    assert abs(rel.mean() - 0.8) < 0.03
+    assert np.all(batch["goal"][rel, 1] == T)
+    np.testing.assert_array_equal(batch["reward"][rel], np.where(t[rel] == T - 1, 0.0, -1.0))
+
+
+def test_episode(buffer):
+    batch = sample(buffer, "episode", 0.8)
+    _, _, rel = check_common(batch)
+    assert abs(rel.mean() - 0.8) < 0.03
+    steps = batch["goal"][rel, 1].astype(int)
+    counts = np.bincount(steps, minlength=T + 1)
+    assert counts.size == T + 1 and np.all(counts > 0)  # 0..T, earlier steps included
+
+
+@pytest.mark.parametrize("strategy", ["future", "final", "episode", "none"])
+def test_relabel_prob_extremes_and_none(buffer, strategy):
+    for p in (0.0, 1.0):
+        batch = sample(buffer, strategy, p, seed=3)
+        _, _, rel = check_common(batch)
+        assert rel.mean() == (p if strategy != "none" else 0.0)
+    if strategy == "none":
+        # Unrelabelled desired goals never match here, so every reward is -1.
+        assert np.all(sample(buffer, "none", 0.8)["reward"] == -1.0)
+
+
+def test_vmap_over_seeds(buffer):
+    stacked = jax.tree.map(lambda x: jnp.stack([x, x]), buffer)
+    keys = jax.random.split(jax.random.key(1), 2)
+    fn = jax.vmap(lambda s, k: her.sample_batch(s, k, 16, compute_reward, "future", 0.8))
+    batch = fn(stacked, keys)
+    assert batch["goal"].shape == (2, 16, 2) and batch["reward"].shape == (2, 16)
+    assert not np.array_equal(batch["obs"][0], batch["obs"][1])  # independent keys
+
+
+def test_unknown_strategy(buffer):
+    with pytest.raises(ValueError):
+        her.sample_batch(buffer, jax.random.key(0), 4, compute_reward, "later", 0.8)

@@ -1,0 +1,18 @@
+import importlib.metadata
+
+import jax
+
+import mjx_skills
+from mjx_skills import compile_cache
+
+
+def test_pinned_jax():
+    # MJX on the CPU is 20x-1000x slower on jax >= 0.7.1: a newer jax must be a deliberate,
+    # benchmarked change of pyproject.toml, not an accident of the resolver.
+    assert jax.__version__ == "0.6.2"
+    assert importlib.metadata.version("jaxlib") == "0.6.2"
+
+
+def test_package_imports_and_cache_is_on():
+    assert mjx_skills.__version__
+    assert jax.config.jax_compilation_cache_dir == str(compile_cache.cache_dir())
