@@ -98,6 +98,9 @@ class EnvConfig:
     """Substeps a reset lets the weld carry the gripper from home to its start (0.2 s)."""
     grasp_settle_substeps: int = 30
     """Substeps a reset closes the fingers for tasks that start with the cube held."""
+    posture_stiffness: float = 5.0
+    """Stiffness (N m / rad) of the weak joint springs toward the home posture that keep the
+    redundant arm out of joint limits while the weld drags it around."""
     max_qvel: float = 100.0
     """A joint speed above this (or a NaN) counts as diverged physics: the env is reset."""
     native_threads: int = 0
@@ -115,6 +118,7 @@ class EnvConfig:
         _check(self.grasp_settle_substeps >= 1, "grasp_settle_substeps", "must be >= 1")
         _check(self.action_scale > 0, "action_scale", "must be > 0")
         _check(self.max_qvel > 0, "max_qvel", "must be > 0")
+        _check(self.posture_stiffness >= 0, "posture_stiffness", "must be >= 0")
         _check(self.native_threads >= 0, "native_threads", "must be >= 0")
         _check(self.episode_length >= 0, "episode_length", "must be >= 0 (0 = task default)")
         _check(self.distance_threshold >= 0, "distance_threshold", "must be >= 0 (0 = default)")

@@ -68,8 +68,9 @@ def check_finite(metrics: dict[str, np.ndarray]) -> None:
         raise FloatingPointError(f"non-finite {', '.join(bad)}; the last good checkpoint is kept")
 
 
-def train_run(args: Args) -> Path:
-    """Train (or resume) a run; returns its directory."""
+def train_run(args: Args, stop_after: int | None = None) -> Path:
+    """Train (or resume) a run; returns its directory. `stop_after` ends the run after that
+    epoch as Ctrl-C would (checkpoint saved), for tests and for training in pieces."""
     if args.resume:
         run_dir = Path(args.resume)
         args = load_config(run_dir)
@@ -85,31 +86,50 @@ def train_run(args: Args) -> Path:
     writer = MetricsWriter(run_dir, resume_from_epoch=start)
     steps_per_epoch = cfg.envs * cfg.cycles * env.episode_length
     bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{cfg.method}")
-    epoch, t0 = start, time.time()
+    logged, t0 = start, time.time()
     try:
         for epoch in range(start + 1, cfg.epochs + 1):
             t_epoch = time.time()
             carry, metrics = epoch_fn(carry)
             metrics = jax.tree.map(np.asarray, metrics)
             check_finite(metrics)
-            wall = time.time() - t0
             writer.write(epoch, metrics, episodes=epoch * cfg.envs * cfg.cycles,
-                         env_steps=epoch * steps_per_epoch, wall_s=wall)  # fmt: skip
+                         env_steps=epoch * steps_per_epoch, wall_s=time.time() - t0)  # fmt: skip
+            logged = epoch
             sps = steps_per_epoch * cfg.seeds / max(time.time() - t_epoch, 1e-9)
-            bar.update(1)
             bar.set_postfix(eval_success=f"{metrics['eval_success'].mean():.2f}",
                             env_steps=epoch * steps_per_epoch, steps_per_s=f"{sps:.0f}")  # fmt: skip
+            bar.update(1)
             if epoch % cfg.checkpoint_every == 0 or epoch == cfg.epochs:
                 checkpoints.save(epoch, carry)
+            if stop_after is not None and epoch >= stop_after:
+                raise KeyboardInterrupt
     except KeyboardInterrupt:
-        if epoch > start and checkpoints.latest_epoch() != epoch:
-            checkpoints.save(epoch, carry)
-        print(f"\ninterrupted at epoch {epoch}; resume with --resume {run_dir}", file=sys.stderr)
+        # Save only a carry whose epoch has been logged, so a resume continues the log.
+        if (
+            logged > start
+            and checkpoints.latest_epoch() != logged
+            and _carry_epoch(carry) == logged
+        ):
+            checkpoints.save(logged, carry)
+        if stop_after is None:
+            print(
+                f"\ninterrupted after epoch {logged}; resume with --resume {run_dir}",
+                file=sys.stderr,
+            )
     finally:
         bar.close()
         writer.close()
         checkpoints.close()
     return run_dir
+
+
+def _carry_epoch(carry) -> int | None:
+    """The carry's epoch counter, or None if Ctrl-C hit mid-epoch (its buffers were donated)."""
+    try:
+        return int(np.asarray(carry.epoch).ravel()[0])
+    except RuntimeError:
+        return None
 
 
 def summary(run_dir: Path) -> str:
@@ -123,7 +143,13 @@ def summary(run_dir: Path) -> str:
     return f"{run_dir}: epoch {last}, eval success {mean:.2f} +- {spread:.2f} over {len(final)} seed(s)"
 
 
+ALIASES = {"--physics": "--env.physics"}
+"""Short flags for the most used nested options."""
+
+
 def main(argv: list[str] | None = None) -> None:
+    argv = sys.argv[1:] if argv is None else argv
+    argv = [ALIASES.get(a.split("=")[0], a.split("=")[0]) + a[len(a.split("=")[0]) :] for a in argv]
     try:
         args = tyro.cli(Args, args=argv, description=__doc__)
     except (ValueError, NotImplementedError) as err:

@@ -54,11 +54,6 @@ def home_qpos(model: mujoco.MjModel) -> np.ndarray:
     return data.qpos[:7].copy()
 
 
-def hold(pos: jax.Array, n_substeps: int) -> jax.Array:
-    """A mocap path that stays at pos: (n_substeps, 3)."""
-    return jnp.broadcast_to(pos, (n_substeps, 3))
-
-
 def smooth_path(start: jax.Array, end: jax.Array, n_substeps: int) -> jax.Array:
     """(n_substeps, 3) mocap path from start to end with a cosine velocity profile.
 
@@ -106,6 +101,12 @@ class BaxterEnv:
     def __init__(self, config: EnvConfig | None = None):
         self.config = config = config or EnvConfig()
         self.model = load_model(self.scene, config)
+        self._home_qpos = jnp.asarray(home_qpos(self.model), jnp.float32)
+        # A weak spring pulls the seven joints toward the home posture. The weld fixes only
+        # the grip's pose, so without it the redundant arm drifts into other IK branches
+        # and can end against a joint limit (elbow straight) where it cannot follow.
+        self.model.qpos_spring[:7] = np.asarray(self._home_qpos)
+        self.model.jnt_stiffness[:7] = config.posture_stiffness
         self.backend = make_backend(self.model, config.physics, config.native_threads)
         self.episode_length = config.episode_length or self.default_episode_length
         self.threshold = config.distance_threshold or self.default_threshold
@@ -115,16 +116,16 @@ class BaxterEnv:
         }  # fmt: skip
         self._object_qpos = self.model.jnt_qposadr[self.model.joint("object").id]
         self._object_qvel = self.model.jnt_dofadr[self.model.joint("object").id]
-        self._home_qpos = jnp.asarray(home_qpos(self.model), jnp.float32)
         data = mujoco.MjData(self.model)
         mujoco.mj_kinematics(self.model, data)
         table = self.model.geom("table")
         self.table_z = float(data.geom_xpos[table.id][2] + table.size[2])
         self.object_half = float(self.model.geom("object").size[2])
         # Workspace of the grip point (torso frame): the thesis's box re-derived for our
-        # table; z from just above the table (pads reach 5 mm below the grip point) to 30 cm.
+        # table; z from just above the table (pads reach 5 mm below the grip point) to 25 cm.
+        # Beyond x = 0.85 the arm nears full stretch, where its motion turns ill-conditioned.
         self.workspace_low = jnp.array([0.5, -0.5, self.table_z + 0.012])
-        self.workspace_high = jnp.array([0.9, 0.1, self.table_z + 0.30])
+        self.workspace_high = jnp.array([0.85, 0.1, self.table_z + 0.25])
         self.obs_dim = 25
 
     # ------------------------------------------------------------------ sensors
@@ -175,9 +176,7 @@ class BaxterEnv:
         return jnp.concatenate([xy, jnp.array([self.table_z + self.object_half])])
 
     # ------------------------------------------------------------------ reset / step
-    def _object_qpos_qvel(self, physics: PhysicsState, object_pos: jax.Array):
-        qpos = self.backend.qpos(physics)
-        qvel = self.backend.qvel(physics)
+    def _put_object(self, qpos: jax.Array, qvel: jax.Array, object_pos: jax.Array):
         pose = jnp.concatenate([object_pos, jnp.array([1.0, 0.0, 0.0, 0.0])])
         qpos = qpos.at[self._object_qpos : self._object_qpos + 7].set(pose)
         qvel = qvel.at[self._object_qvel : self._object_qvel + 6].set(0.0)
@@ -187,22 +186,21 @@ class BaxterEnv:
         """Physics state with the grip point at `grip` and the object at `object_pos`.
 
         The weld carries the arm from home to `grip` with the object parked out of reach,
-        then the object is put in place (and, for held starts, the fingers close on it).
+        then the object is put in place and, for held starts, the fingers close on it
+        (otherwise one substep makes sensordata describe the placed state).
         """
         cfg = self.config
         qpos = jnp.zeros(self.model.nq).at[:7].set(self._home_qpos)
-        qpos = qpos.at[self._object_qpos : self._object_qpos + 7].set(
-            jnp.concatenate([jnp.asarray(PARKED_OBJECT, jnp.float32), jnp.array([1.0, 0, 0, 0])])
-        )
-        physics = self.backend.init(qpos, jnp.zeros(self.model.nv))
+        qpos, qvel = self._put_object(qpos, jnp.zeros(self.model.nv), jnp.asarray(PARKED_OBJECT))
+        physics = self.backend.init(qpos, qvel)
         open_ctrl = jnp.full((2,), FINGER_OPEN)
-        physics = self.backend.step(physics, open_ctrl, hold(grip, cfg.settle_substeps))
-        physics = self.backend.set_qpos_qvel(physics, *self._object_qpos_qvel(physics, object_pos))
         if self.grasped_start:
-            closed = jnp.full((2,), FINGER_CLOSED_CTRL)
-            return self.backend.step(physics, closed, hold(grip, cfg.grasp_settle_substeps))
-        # One substep so that sensordata describes the placed state.
-        return self.backend.step(physics, open_ctrl, hold(grip, 1))
+            last = (jnp.full((2,), FINGER_CLOSED_CTRL), cfg.grasp_settle_substeps)
+        else:
+            last = (open_ctrl, 1)
+        phases = ((open_ctrl, cfg.settle_substeps), last)
+        put = lambda qpos, qvel: self._put_object(qpos, qvel, object_pos)
+        return self.backend.settle(physics, grip, phases, put)
 
     def reset(self, key: jax.Array) -> State:
         grip, object_pos, goal = self.sample_start(key)

@@ -30,13 +30,16 @@ def holding(env: BaxterEnv, obs: jax.Array) -> jax.Array:
 
 
 def _detour(env: BaxterEnv, grip: jax.Array, target: jax.Array) -> jax.Array:
-    """ContainerWall: to cross the tall wall's line (y = -0.28), go round its end (x < 0.55)."""
-    wall_y, pass_x, safe_z = -0.28, 0.515, env.table_z + 0.14
-    crossing = jnp.sign(grip[1] - wall_y) != jnp.sign(target[1] - wall_y)
+    """ContainerWall: to cross the tall wall's line (y = -0.28) go round its end (x < 0.55),
+    out to 8 cm past the line before heading for the target (a held cube is 4 cm wide)."""
+    wall_y, pass_x, margin, safe_z = -0.28, 0.505, 0.06, env.table_z + 0.14
+    going_down = target[1] < wall_y  # toward -y, where the container is
+    crossing = jnp.where(going_down, grip[1] > wall_y - margin, grip[1] < wall_y + margin)
+    past_y = jnp.where(going_down, wall_y - margin - 0.02, wall_y + margin + 0.02)
     beside = jnp.where(
         grip[0] > pass_x + 0.01,
         jnp.array([pass_x, grip[1], safe_z]),
-        jnp.array([pass_x, target[1], safe_z]),
+        jnp.array([pass_x, past_y, safe_z]),
     )
     return jnp.where(crossing, beside, target)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import threading
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import jax
@@ -47,6 +48,17 @@ class PhysicsBackend(Protocol):
         mocap_path (n_substeps, 3)."""
         ...
 
+    def settle(
+        self,
+        state: PhysicsState,
+        mocap_pos: jax.Array,
+        phases: tuple[tuple[jax.Array, int], ...],
+        edit: Callable[[jax.Array, jax.Array], tuple[jax.Array, jax.Array]],
+    ) -> PhysicsState:
+        """Two phases at a fixed mocap position, (ctrl, n_substeps) each, with
+        `edit(qpos, qvel) -> (qpos, qvel)` applied between them (resets use it)."""
+        ...
+
     def qpos(self, state: PhysicsState) -> jax.Array: ...
 
     def qvel(self, state: PhysicsState) -> jax.Array: ...
@@ -74,7 +86,31 @@ class MjxBackend:
         def substep(d, mocap_pos):
             return mjx.step(self.mjx_model, d.replace(mocap_pos=mocap_pos.reshape(-1, 3))), None
 
-        data, _ = jax.lax.scan(substep, state.data.replace(ctrl=ctrl), mocap_path)
+        # Each env step starts the solver cold, as mujoco.rollout does on the native side
+        # (its state vector carries no warmstart): the two backends then agree closely.
+        data = state.data.replace(
+            ctrl=ctrl, qacc_warmstart=jnp.zeros_like(state.data.qacc_warmstart)
+        )
+        data, _ = jax.lax.scan(substep, data, mocap_path)
+        return PhysicsState(data=data, sensordata=data.sensordata)
+
+    def settle(self, state, mocap_pos, phases, edit):
+        # One scan over both phases, the edit selected in at its substep: each mjx.step in a
+        # program costs minutes of XLA compile on a CPU, so a reset holds only one.
+        (ctrl_a, n_a), (ctrl_b, n_b) = phases
+
+        def substep(d, i):
+            qpos, qvel = edit(d.qpos, d.qvel)
+            at_edit = i == n_a
+            d = d.replace(
+                qpos=jnp.where(at_edit, qpos, d.qpos),
+                qvel=jnp.where(at_edit, qvel, d.qvel),
+                ctrl=jnp.where(i < n_a, ctrl_a, ctrl_b),
+                mocap_pos=mocap_pos.reshape(-1, 3),
+            )
+            return mjx.step(self.mjx_model, d), None
+
+        data, _ = jax.lax.scan(substep, state.data, jnp.arange(n_a + n_b))
         return PhysicsState(data=data, sensordata=data.sensordata)
 
     def qpos(self, state: PhysicsState) -> jax.Array:
@@ -151,6 +187,12 @@ class NativeBackend:
         new_state = states[:, -1].astype(np.float32).reshape(*lead, self.nstate)
         sensordata = sensors[:, -1].astype(np.float32).reshape(*lead, -1)
         return new_state, sensordata
+
+    def settle(self, state, mocap_pos, phases, edit):
+        (ctrl_a, n_a), (ctrl_b, n_b) = phases
+        state = self.step(state, ctrl_a, jnp.broadcast_to(mocap_pos, (n_a, 3)))
+        state = self.set_qpos_qvel(state, *edit(self.qpos(state), self.qvel(state)))
+        return self.step(state, ctrl_b, jnp.broadcast_to(mocap_pos, (n_b, 3)))
 
     def qpos(self, state: PhysicsState) -> jax.Array:
         return state.data[..., self._qpos_slice]

@@ -16,7 +16,7 @@ from mjx_skills.envs.baxter import BaxterEnv
 GRIP_POS = (0, 1, 2)
 GRIP_VEL = (20, 21, 22)
 OBJECT_POS = (3, 4, 5)
-OBJECT_REGION = ((0.55, -0.45), (0.85, 0.05))
+OBJECT_REGION = ((0.55, -0.45), (0.8, 0.05))
 
 
 def _lerp(param: jax.Array, low, high) -> jax.Array:

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 from mjx_skills.envs.baxter import BaxterEnv
 
 CONTAINER_XY = (0.7, -0.35)  # centre of the container and of object B (xml/scene_*.xml)
-TASK_OBJECT_REGION = ((0.55, -0.2), (0.85, 0.05))  # cubes start away from container / B
+TASK_OBJECT_REGION = ((0.55, -0.2), (0.8, 0.05))  # cubes start away from container / B
 
 
 class PickMove(BaxterEnv):
@@ -20,11 +20,11 @@ class PickMove(BaxterEnv):
 
     def sample_start(self, key):
         k_grip, k_obj, k_goal = jax.random.split(key, 3)
-        obj = self.sample_on_table(k_obj, (0.55, -0.45), (0.85, 0.05))
+        obj = self.sample_on_table(k_obj, (0.55, -0.45), (0.8, 0.05))
         goal = self.sample_workspace(
             k_goal,
             low=jnp.array([0.55, -0.45, self.table_z + self.object_half]),
-            high=jnp.array([0.85, 0.05, self.table_z + self.object_half + 0.18]),
+            high=jnp.array([0.8, 0.05, self.table_z + self.object_half + 0.18]),
         )
         return self.sample_workspace(k_grip), obj, goal
 
@@ -82,7 +82,7 @@ class PutOn(PutInContainer):
 
 
 class TakeOut(PutInContainer):
-    """Take the cube out of the container to a random 3-D goal 10-25 cm above the container's
+    """Take the cube out of the container to a random 3-D goal 10-22 cm above the container's
     floor, within 3 cm (50 steps)."""
 
     default_episode_length = 50
@@ -96,7 +96,7 @@ class TakeOut(PutInContainer):
         obj = jnp.concatenate([obj_xy, self.goal[2:]])
         goal_xy = centre + jax.random.uniform(k_goal, (2,), minval=-0.05, maxval=0.05)
         goal_z = self.table_z + jax.random.uniform(
-            jax.random.fold_in(k_goal, 1), (1,), minval=0.1, maxval=0.25
+            jax.random.fold_in(k_goal, 1), (1,), minval=0.1, maxval=0.22
         )
         return self.sample_grip_start(k_grip), obj, jnp.concatenate([goal_xy, goal_z])
 

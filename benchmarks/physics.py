@@ -1,0 +1,107 @@
+"""Env steps per second of `vmap(env.step)` inside a jitted scan, on both physics backends,
+against plain native MuJoCo (C, one thread, no JAX) stepping the same scene.
+
+    python benchmarks/physics.py [--task pick_move] [--batches 16 256 1024] [--mjx-steps 5]
+
+Prints one JSON row per (backend, batch); the last line is the batch-256 summary with the
+ratios over the plain one-thread figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import jax
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from mjx_skills.envs import make
+
+
+def env_steps_per_s(env, batch: int, n_steps: int) -> tuple[float, float]:
+    """-> (env steps per second, compile seconds) for a scan of n_steps random actions."""
+    key = jax.random.PRNGKey(0)
+    state = jax.jit(jax.vmap(env.reset))(jax.random.split(key, batch))
+    actions = jax.random.uniform(key, (n_steps, batch, 4), minval=-1.0, maxval=1.0)
+
+    @jax.jit
+    def run(state, actions):
+        def body(s, a):
+            s = jax.vmap(env.step)(s, a)
+            return s, s.obs[:, 0]
+
+        return jax.lax.scan(body, state, actions)
+
+    t0 = time.perf_counter()
+    compiled = run.lower(state, actions).compile()
+    compile_s = time.perf_counter() - t0
+    jax.block_until_ready(compiled(state, actions))  # warm-up
+    t0 = time.perf_counter()
+    jax.block_until_ready(compiled(state, actions))
+    return batch * n_steps / (time.perf_counter() - t0), compile_s
+
+
+def raw_native_env_steps_per_s(env, batch: int, n_steps: int) -> float:
+    """Plain MuJoCo: rollout's C loop on one thread, the same substeps per env step."""
+    model = env.model
+    data = mujoco.MjData(model)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state0 = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state0, spec)
+    n_sub = env.config.n_substeps * n_steps
+    rng = np.random.default_rng(0)
+    control = np.concatenate(
+        [
+            rng.uniform(-0.02, 0.02, (batch, n_sub, model.nu)),
+            rng.uniform(0.5, 0.7, (batch, n_sub, 3)),
+        ],
+        -1,
+    )
+    control_spec = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_MOCAP_POS
+    initial = np.tile(state0, (batch, 1))
+    t0 = time.perf_counter()
+    rollout.rollout(model, data, initial, control, control_spec=control_spec)
+    return batch * n_steps / (time.perf_counter() - t0)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--task", default="pick_move")
+    parser.add_argument("--batches", type=int, nargs="+", default=[16, 256, 1024])
+    parser.add_argument("--native-steps", type=int, default=50)
+    parser.add_argument("--mjx-steps", type=int, default=5)
+    parser.add_argument("--skip-mjx", action="store_true")
+    args = parser.parse_args()
+    cores = os.cpu_count()
+    native_env = make(args.task, physics="native")
+    mjx_env = None if args.skip_mjx else make(args.task, physics="mjx")
+    rows = {}
+    for batch in args.batches:
+        raw = raw_native_env_steps_per_s(native_env, batch, args.native_steps)
+        native, native_compile = env_steps_per_s(native_env, batch, args.native_steps)
+        row = {
+            "task": args.task, "batch": batch, "cores": cores, "device": jax.default_backend(),
+            "native_raw_env_steps_per_s": round(raw, 1),
+            "native_jit_env_steps_per_s": round(native, 1),
+            "ratio_native_jit": round(native / raw, 3),
+            "native_compile_s": round(native_compile, 1),
+        }  # fmt: skip
+        if mjx_env is not None:
+            mjx_sps, mjx_compile = env_steps_per_s(mjx_env, batch, args.mjx_steps)
+            row.update(
+                mjx_env_steps_per_s=round(mjx_sps, 1),
+                ratio_mjx=round(mjx_sps / raw, 4),
+                mjx_compile_s=round(mjx_compile, 1),
+            )
+        rows[batch] = row
+        print(json.dumps(row), flush=True)
+    summary = rows.get(256, rows[args.batches[-1]])
+    print(json.dumps(summary))
+
+
+if __name__ == "__main__":
+    main()
