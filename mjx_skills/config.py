@@ -23,14 +23,17 @@ class DDPGConfig:
     """Hidden layer widths of actor and critic (thesis: 3 x 64)."""
     layer_norm: bool = True
     """LayerNorm after each hidden layer (the original code uses it)."""
-    actor_lr: float = 1e-4
-    """Adam learning rate of the actor (Table 6.1)."""
+    actor_lr: float = 1e-3
+    """Adam learning rate of the actor. Table 6.1 says 1e-4; 1e-3 (as the HER baselines)
+    reached 95 % on transit in half the epochs here (README, "Hyperparameters")."""
     critic_lr: float = 1e-3
     """Adam learning rate of the critic (Table 6.1)."""
     gamma: float = 0.98
     """Discount factor (Table 6.1)."""
-    tau: float = 1e-3
-    """Soft target update rate: target <- (1 - tau) target + tau online (Table 6.1)."""
+    tau: float = 0.05
+    """Soft target update rate: target <- (1 - tau) target + tau online. Table 6.1 says
+    1e-3, with 8 workers x 800 updates per epoch; at our 400 updates per epoch targets that
+    slow left transit at 15 % after 20 epochs, 0.05 (the HER baselines' polyak 0.95) at 100 %."""
     batch_size: int = 128
     """Transitions per gradient step (Table 6.1)."""
     noise_sigma: float = 0.2
@@ -147,8 +150,9 @@ class TrainConfig:
     """Episodes collected in parallel per cycle."""
     cycles: int = 4
     """Collect-then-train cycles per epoch (envs x cycles = 16 episodes, as the thesis)."""
-    updates_per_cycle: int = 40
-    """Gradient steps after each cycle's episodes (original code: 40)."""
+    updates_per_cycle: int = 100
+    """Gradient steps after each cycle's episodes (original code: 40 per cycle, but 20 cycles
+    per epoch; 100 x 4 cycles learned transit fastest per env step and per second here)."""
     eval_episodes: int = 20
     """Evaluation episodes per epoch with the frozen deterministic policy (thesis: 20)."""
     replay_capacity: int = 1_000_000

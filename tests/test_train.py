@@ -100,6 +100,8 @@ def test_corrupt_checkpoint_falls_back_to_the_previous_one(tmp_path):
             f.write_bytes(b"garbage")
     train_run(Args(train=TrainConfig(**TINY), resume=str(run_dir)))
     assert [r["epoch"] for r in read_metrics(run_dir)] == [1, 2, 3]
+    assert list((run_dir / "checkpoints").glob("3.corrupt-*")), "the bad checkpoint is kept aside"
+    assert (run_dir / "checkpoints" / "3").exists()  # epoch 3 trained again and saved
 
 
 def test_bad_input_names_the_field():

@@ -1,0 +1,149 @@
+"""Gymnasium goal-conditioned envs on native MuJoCo, for Stable-Baselines3 and friends.
+
+Same XML, controller, start distributions, episode lengths and success predicates as the
+JAX envs: physics runs in `mujoco.mj_step` on one MjData, and the task logic (start and
+goal sampling, action -> controls, sensors -> observation, reward) is the JAX env's own,
+called through small jitted functions, so the two cannot drift apart.
+
+    import gymnasium as gym, mjx_skills.envs.gym  # registers MjxSkills/<Task>-v0
+    env = gym.make("MjxSkills/PickMove-v0")
+
+Built on the mujoco bindings directly: gymnasium-robotics 1.4.2's MuJoCo base fails to
+load models under mujoco 4.0.0 (an assertion on joint types).
+"""
+
+from __future__ import annotations
+
+import gymnasium
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from mjx_skills.config import EnvConfig
+from mjx_skills.envs.baxter import FINGER_CLOSED_CTRL, FINGER_OPEN, PARKED_OBJECT, smooth_path
+from mjx_skills.envs.registry import ENVS, make
+
+
+class BaxterGymEnv(gymnasium.Env):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 7}
+
+    def __init__(self, task: str = "pick_move", render_mode: str | None = None, **config):
+        self.task = make(task, EnvConfig(physics="native", **config))
+        self.model = self.task.model
+        self.data = mujoco.MjData(self.model)
+        self.render_mode = render_mode
+        self._renderer = None
+        t = self.task
+        self._sample_start = jax.jit(t.sample_start)
+        self._controls = jax.jit(lambda grip, a: t.action_to_controls(grip, jnp.clip(a, -1, 1)))
+        self._path = jax.jit(smooth_path, static_argnums=2)
+        self._observe = jax.jit(
+            lambda sd: (t.observation(t.sensors(sd)), t.achieved_goal(t.sensors(sd)))
+        )
+        self._reward = jax.jit(t.compute_reward)
+        obs_box = spaces.Box(-np.inf, np.inf, (t.obs_dim,), np.float32)
+        goal_box = spaces.Box(-np.inf, np.inf, (t.goal_dim,), np.float32)
+        self.observation_space = spaces.Dict(
+            {"observation": obs_box, "achieved_goal": goal_box, "desired_goal": goal_box}
+        )
+        self.action_space = spaces.Box(-1.0, 1.0, (t.action_dim,), np.float32)
+        self._goal = np.zeros(t.goal_dim, np.float32)
+
+    # ------------------------------------------------------------------ physics
+    def _substeps(self, ctrl, mocap_path) -> None:
+        self.data.ctrl[:] = ctrl
+        for mocap_pos in mocap_path:
+            self.data.mocap_pos[0] = mocap_pos
+            mujoco.mj_step(self.model, self.data)
+
+    def _place(self, grip: np.ndarray, object_pos: np.ndarray) -> None:
+        """As BaxterEnv.place: carry the arm to `grip`, then put the object in place."""
+        t, cfg, d = self.task, self.task.config, self.data
+        mujoco.mj_resetData(self.model, d)
+        d.qpos[:7] = np.asarray(t._home_qpos)
+        self._set_object(PARKED_OBJECT)
+        opened = np.full(2, FINGER_OPEN)
+        self._substeps(opened, np.broadcast_to(grip, (cfg.settle_substeps, 3)))
+        self._set_object(object_pos)
+        if t.grasped_start:
+            closed = np.full(2, FINGER_CLOSED_CTRL)
+            self._substeps(closed, np.broadcast_to(grip, (cfg.grasp_settle_substeps, 3)))
+        else:
+            self._substeps(opened, grip[None])
+
+    def _set_object(self, pos) -> None:
+        qadr, vadr = self.task._object_qpos, self.task._object_qvel
+        self.data.qpos[qadr : qadr + 7] = [*pos, 1.0, 0.0, 0.0, 0.0]
+        self.data.qvel[vadr : vadr + 6] = 0.0
+
+    # ------------------------------------------------------------------ gymnasium API
+    def _obs(self) -> dict[str, np.ndarray]:
+        obs, achieved = self._observe(np.asarray(self.data.sensordata, np.float32))
+        return {
+            "observation": np.asarray(obs, np.float32),
+            "achieved_goal": np.asarray(achieved, np.float32),
+            "desired_goal": self._goal.copy(),
+        }
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        # options={"jax_key": key} starts from exactly what the JAX env's reset(key) does.
+        if options and "jax_key" in options:
+            key = jnp.asarray(options["jax_key"])
+        else:
+            key = jax.random.PRNGKey(int(self.np_random.integers(2**31)))
+        grip, object_pos, goal = (np.asarray(x, np.float64) for x in self._sample_start(key))
+        self._place(grip, object_pos)
+        self._goal = goal.astype(np.float32)
+        obs = self._obs()
+        return obs, {"is_success": bool(self._success(obs))}
+
+    def step(self, action):
+        action = np.nan_to_num(np.asarray(action, np.float32))
+        grip = np.asarray(self.data.sensordata[self.task._sensor_slices["grip_pos"]], np.float32)
+        ctrl, target = self._controls(grip, action)
+        self.data.qacc_warmstart[:] = 0.0  # each step starts cold, as mujoco.rollout does
+        self._substeps(
+            np.asarray(ctrl), np.asarray(self._path(grip, target, self.task.config.n_substeps))
+        )
+        obs = self._obs()
+        reward = float(self.compute_reward(obs["achieved_goal"], obs["desired_goal"], {}))
+        return obs, reward, False, False, {"is_success": bool(reward == 0.0)}
+
+    def _success(self, obs) -> bool:
+        return self.compute_reward(obs["achieved_goal"], obs["desired_goal"], {}) == 0.0
+
+    def compute_reward(self, achieved_goal, desired_goal, info):
+        """Vectorised sparse reward (0 success, -1 otherwise) over leading batch axes."""
+        return np.asarray(
+            self._reward(jnp.asarray(achieved_goal), jnp.asarray(desired_goal)), np.float32
+        )
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._renderer is None:  # needs an OpenGL backend (MUJOCO_GL=egl or osmesa)
+            self._renderer = mujoco.Renderer(self.model, 480, 640)
+        self._renderer.update_scene(self.data)
+        return self._renderer.render()
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def gym_id(task: str) -> str:
+    return "MjxSkills/" + "".join(part.capitalize() for part in task.split("_")) + "-v0"
+
+
+for _name, _cls in ENVS.items():
+    if gym_id(_name) not in gymnasium.registry:
+        gymnasium.register(
+            id=gym_id(_name),
+            entry_point="mjx_skills.envs.gym:BaxterGymEnv",
+            kwargs={"task": _name},
+            max_episode_steps=_cls.default_episode_length,
+        )
