@@ -101,21 +101,21 @@ class BaxterEnv:
     def __init__(self, config: EnvConfig | None = None):
         self.config = config = config or EnvConfig()
         self.model = load_model(self.scene, config)
-        self._home_qpos = jnp.asarray(home_qpos(self.model), jnp.float32)
+        self.home_arm_qpos = jnp.asarray(home_qpos(self.model), jnp.float32)
         # A weak spring pulls the seven joints toward the home posture. The weld fixes only
         # the grip's pose, so without it the redundant arm drifts into other IK branches
         # and can end against a joint limit (elbow straight) where it cannot follow.
-        self.model.qpos_spring[:7] = np.asarray(self._home_qpos)
+        self.model.qpos_spring[:7] = np.asarray(self.home_arm_qpos)
         self.model.jnt_stiffness[:7] = config.posture_stiffness
         self.backend = make_backend(self.model, config.physics, config.native_threads)
         self.episode_length = config.episode_length or self.default_episode_length
         self.threshold = config.distance_threshold or self.default_threshold
-        self._sensor_slices = {
-            name: slice(self.model.sensor(name).adr[0], self.model.sensor(name).adr[0] + self.model.sensor(name).dim[0])
-            for name in SENSORS
-        }  # fmt: skip
-        self._object_qpos = self.model.jnt_qposadr[self.model.joint("object").id]
-        self._object_qvel = self.model.jnt_dofadr[self.model.joint("object").id]
+        sensors = {name: self.model.sensor(name) for name in SENSORS}
+        self.sensor_slices = {
+            name: slice(int(s.adr[0]), int(s.adr[0] + s.dim[0])) for name, s in sensors.items()
+        }
+        self.object_qpos_adr = self.model.jnt_qposadr[self.model.joint("object").id]
+        self.object_qvel_adr = self.model.jnt_dofadr[self.model.joint("object").id]
         data = mujoco.MjData(self.model)
         mujoco.mj_kinematics(self.model, data)
         table = self.model.geom("table")
@@ -130,7 +130,7 @@ class BaxterEnv:
 
     # ------------------------------------------------------------------ sensors
     def sensors(self, sensordata: jax.Array) -> dict[str, jax.Array]:
-        return {name: sensordata[..., s] for name, s in self._sensor_slices.items()}
+        return {name: sensordata[..., s] for name, s in self.sensor_slices.items()}
 
     def observation(self, sens: dict[str, jax.Array]) -> jax.Array:
         """25 numbers: grip pos, object pos, object - grip, finger pos (2), object rotation
@@ -178,8 +178,8 @@ class BaxterEnv:
     # ------------------------------------------------------------------ reset / step
     def _put_object(self, qpos: jax.Array, qvel: jax.Array, object_pos: jax.Array):
         pose = jnp.concatenate([object_pos, jnp.array([1.0, 0.0, 0.0, 0.0])])
-        qpos = qpos.at[self._object_qpos : self._object_qpos + 7].set(pose)
-        qvel = qvel.at[self._object_qvel : self._object_qvel + 6].set(0.0)
+        qpos = qpos.at[self.object_qpos_adr : self.object_qpos_adr + 7].set(pose)
+        qvel = qvel.at[self.object_qvel_adr : self.object_qvel_adr + 6].set(0.0)
         return qpos, qvel
 
     def place(self, grip: jax.Array, object_pos: jax.Array) -> PhysicsState:
@@ -190,7 +190,7 @@ class BaxterEnv:
         (otherwise one substep makes sensordata describe the placed state).
         """
         cfg = self.config
-        qpos = jnp.zeros(self.model.nq).at[:7].set(self._home_qpos)
+        qpos = jnp.zeros(self.model.nq).at[:7].set(self.home_arm_qpos)
         qpos, qvel = self._put_object(qpos, jnp.zeros(self.model.nv), jnp.asarray(PARKED_OBJECT))
         physics = self.backend.init(qpos, qvel)
         open_ctrl = jnp.full((2,), FINGER_OPEN)

@@ -62,7 +62,7 @@ class BaxterGymEnv(gymnasium.Env):
         """As BaxterEnv.place: carry the arm to `grip`, then put the object in place."""
         t, cfg, d = self.task, self.task.config, self.data
         mujoco.mj_resetData(self.model, d)
-        d.qpos[:7] = np.asarray(t._home_qpos)
+        d.qpos[:7] = np.asarray(t.home_arm_qpos)
         self._set_object(PARKED_OBJECT)
         opened = np.full(2, FINGER_OPEN)
         self._substeps(opened, np.broadcast_to(grip, (cfg.settle_substeps, 3)))
@@ -74,7 +74,7 @@ class BaxterGymEnv(gymnasium.Env):
             self._substeps(opened, grip[None])
 
     def _set_object(self, pos) -> None:
-        qadr, vadr = self.task._object_qpos, self.task._object_qvel
+        qadr, vadr = self.task.object_qpos_adr, self.task.object_qvel_adr
         self.data.qpos[qadr : qadr + 7] = [*pos, 1.0, 0.0, 0.0, 0.0]
         self.data.qvel[vadr : vadr + 6] = 0.0
 
@@ -102,7 +102,7 @@ class BaxterGymEnv(gymnasium.Env):
 
     def step(self, action):
         action = np.nan_to_num(np.asarray(action, np.float32))
-        grip = np.asarray(self.data.sensordata[self.task._sensor_slices["grip_pos"]], np.float32)
+        grip = np.asarray(self.data.sensordata[self.task.sensor_slices["grip_pos"]], np.float32)
         ctrl, target = self._controls(grip, action)
         self.data.qacc_warmstart[:] = 0.0  # each step starts cold, as mujoco.rollout does
         self._substeps(

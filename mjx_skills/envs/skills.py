@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_skills.envs.baxter import BaxterEnv
+from mjx_skills.envs.baxter import BaxterEnv, is_grasped
 
 # Observation layout (see BaxterEnv.observation).
 GRIP_POS = (0, 1, 2)
@@ -101,4 +101,6 @@ class Transfer(BaxterEnv):
         return _lerp(param, *self.object_goal_box())
 
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
-        return self.is_success(obs[..., 3:6], goal)
+        """At the goal, or the cube dropped (nothing left to transfer)."""
+        dropped = ~is_grasped(obs[..., 6:9], obs[..., 9:11], self.object_half)
+        return self.is_success(obs[..., 3:6], goal) | dropped

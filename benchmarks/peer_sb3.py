@@ -1,0 +1,192 @@
+"""Our DDPG+HER against Stable-Baselines3 DDPG+HER and SAC+HER, same task, same machine,
+same process, same number of env steps.
+
+    pip install -e '.[bench]'    # torch 2.13.0 (CPU), stable-baselines3, gymnasium
+    python benchmarks/peer_sb3.py [--tasks transit pick_move] [--epochs 20] [--plot out.png]
+
+Both sides: actor and critic 3 x 64, batch 128, gamma 0.98, tau 0.05, Adam 1e-3, HER
+"future" with k = 4 (relabel share 0.8), Gaussian action noise sigma 0.2. SB3 runs our
+gymnasium adapter (mjx_skills.envs.gym), the same XML and task logic on native MuJoCo.
+
+- Throughput: training env steps per second with updates included, both sides at one
+  gradient update per env step (ours: cycles x updates = env steps per epoch). Our figure
+  also pays for 20 evaluation episodes per epoch; SB3's clock stops while it is evaluated.
+- Learning: eval success (20 episodes, deterministic policy, success at the last step)
+  after every 16 training episodes, against env steps and wall-clock; each side at its best
+  settings found (ours: the defaults, 1.25 updates per env step on transit; SB3: one update
+  per step after 1,000 random steps).
+
+One JSON row per (task, algorithm); the last line is the transit summary with `ratio`
+(our env steps/s over SB3 DDPG's) and the seconds each side needed to first reach 90 %.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import gymnasium
+import jax
+import numpy as np
+
+import mjx_skills.envs.gym  # noqa: F401  (registers MjxSkills/*-v0)
+from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
+from mjx_skills.envs.gym import gym_id
+from mjx_skills.train import build
+
+EPISODES_PER_EPOCH, EVAL_EPISODES = 16, 20
+
+
+def time_to(curve: list[dict], level: float = 0.9) -> float | None:
+    return next((p["wall_s"] for p in curve if p["eval_success"] >= level), None)
+
+
+def run_ours(task: str, epochs: int, updates_per_step: float | None) -> dict:
+    """Our trainer; updates_per_step None = defaults. -> throughput and learning curve."""
+    probe = TrainConfig(task=task)
+    cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False)
+    if updates_per_step is not None:
+        steps_per_cycle = probe.envs * gymnasium.spec(gym_id(task)).max_episode_steps
+        cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False,
+                          updates_per_cycle=int(updates_per_step * steps_per_cycle))  # fmt: skip
+    t0 = time.perf_counter()
+    env, epoch_fn, carry = build(cfg, EnvConfig(), DDPGConfig())
+    curve, steps = [], cfg.envs * cfg.cycles * env.episode_length
+    train_s = 0.0
+    for epoch in range(1, epochs + 1):
+        t_epoch = time.perf_counter()
+        carry, metrics = epoch_fn(carry)
+        success = float(np.asarray(metrics["eval_success"]).mean())
+        if epoch > 1:  # the first epoch includes the compile
+            train_s += time.perf_counter() - t_epoch
+        curve.append({"env_steps": epoch * steps, "wall_s": time.perf_counter() - t0, "eval_success": success})
+    updates = cfg.cycles * cfg.updates_per_cycle
+    return {"env_steps_per_s": steps * (epochs - 1) / train_s, "updates_per_env_step": updates / steps,
+            "curve": curve}  # fmt: skip
+
+
+class _Eval:
+    """SB3 callback: every epoch's worth of env steps, 20 deterministic episodes."""
+
+    def __init__(self, task: str, every: int):
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        outer = self
+
+        class Callback(BaseCallback):
+            def _on_step(self) -> bool:
+                if self.num_timesteps % every == 0:
+                    outer.evaluate(self.model, self.num_timesteps)
+                return True
+
+        self.callback, self.env, self.curve = Callback(), gymnasium.make(gym_id(task)), []
+        self.eval_s, self.t0 = 0.0, time.perf_counter()
+
+    def evaluate(self, model, env_steps: int) -> None:
+        t_eval, wins = time.perf_counter(), 0
+        for i in range(EVAL_EPISODES):
+            obs, _ = self.env.reset(seed=10_000 + i + env_steps)
+            done, info = False, {}
+            while not done:
+                action, _ = model.predict(obs, deterministic=True)
+                obs, _, terminated, truncated, info = self.env.step(action)
+                done = terminated or truncated
+            wins += bool(info.get("is_success"))
+        self.eval_s += time.perf_counter() - t_eval
+        wall = time.perf_counter() - self.t0 - self.eval_s  # SB3's clock stops for evaluation
+        self.curve.append({"env_steps": env_steps, "wall_s": wall, "eval_success": wins / EVAL_EPISODES})
+
+
+def run_sb3(task: str, algo: str, total_steps: int, seed: int = 0) -> dict:
+    import torch
+    from stable_baselines3 import DDPG, SAC, HerReplayBuffer
+    from stable_baselines3.common.noise import NormalActionNoise
+
+    torch.set_num_threads(os.cpu_count() or 1)
+    env = gymnasium.make(gym_id(task))
+    episode = env.spec.max_episode_steps
+    common = dict(
+        replay_buffer_class=HerReplayBuffer,
+        replay_buffer_kwargs=dict(n_sampled_goal=4, goal_selection_strategy="future"),
+        learning_rate=1e-3, batch_size=128, gamma=0.98, tau=0.05, buffer_size=200_000,
+        learning_starts=1000, train_freq=1, gradient_steps=1, seed=seed, verbose=0,
+        policy_kwargs=dict(net_arch=[64, 64, 64]),
+    )  # fmt: skip
+    if algo == "ddpg":
+        noise = NormalActionNoise(np.zeros(4), 0.2 * np.ones(4))
+        model = DDPG("MultiInputPolicy", env, action_noise=noise, **common)
+    else:
+        model = SAC("MultiInputPolicy", env, **common)
+    evaluator = _Eval(task, EPISODES_PER_EPOCH * episode)
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=total_steps, callback=evaluator.callback)
+    train_s = time.perf_counter() - t0 - evaluator.eval_s
+    return {"env_steps_per_s": total_steps / train_s, "updates_per_env_step": 1.0, "curve": evaluator.curve}
+
+
+def plot(results: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tasks = sorted({task for task, _ in results})
+    fig, axes = plt.subplots(len(tasks), 2, figsize=(10, 3.4 * len(tasks)), squeeze=False)
+    for row, task in enumerate(tasks):
+        for (t, algo), res in results.items():
+            if t != task or "curve" not in res:
+                continue
+            xs = [p["env_steps"] for p in res["curve"]], [p["wall_s"] for p in res["curve"]]
+            ys = [p["eval_success"] for p in res["curve"]]
+            for col in (0, 1):
+                axes[row, col].plot(xs[col], ys, label=algo)
+        for col, label in enumerate(["env steps", "wall-clock s (2-core CPU)"]):
+            axes[row, col].set(xlabel=label, ylabel=f"{task}: eval success", ylim=(-0.02, 1.02))
+            axes[row, col].grid(alpha=0.3)
+            axes[row, col].legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--tasks", nargs="+", default=["transit", "pick_move"])
+    parser.add_argument("--epochs", type=int, default=20, help="epochs of 16 training episodes")
+    parser.add_argument("--algos", nargs="+", default=["ddpg", "sac"])
+    parser.add_argument("--plot", default="benchmarks/peer_sb3.png")
+    args = parser.parse_args()
+    results = {}
+    for task in args.tasks:
+        episode = gymnasium.spec(gym_id(task)).max_episode_steps
+        total = args.epochs * EPISODES_PER_EPOCH * episode
+        matched = run_ours(task, max(3, args.epochs // 5), updates_per_step=1.0)
+        ours = run_ours(task, args.epochs, updates_per_step=None)
+        results[(task, "ours_ddpg_her")] = ours
+        rows = {"ours_ddpg_her": {"env_steps_per_s_matched": matched["env_steps_per_s"], **ours}}
+        for algo in args.algos:
+            results[(task, f"sb3_{algo}_her")] = rows[f"sb3_{algo}_her"] = run_sb3(task, algo, total)
+        for name, res in rows.items():
+            summary = {k: v for k, v in res.items() if k != "curve"}
+            print(json.dumps({"task": task, "algo": name, "env_steps": total, **summary,
+                              "final_success": res["curve"][-1]["eval_success"],
+                              "time_to_90_s": time_to(res["curve"])}), flush=True)  # fmt: skip
+        if task == "transit":
+            sb3 = rows["sb3_ddpg_her"]
+            results["summary"] = {
+                "task": task, "env_steps": total, "device": jax.default_backend(), "cores": os.cpu_count(),
+                "updates_per_env_step": 1.0,
+                "ours_env_steps_per_s": round(matched["env_steps_per_s"], 1),
+                "sb3_env_steps_per_s": round(sb3["env_steps_per_s"], 1),
+                "ratio": round(matched["env_steps_per_s"] / sb3["env_steps_per_s"], 2),
+                "ours_time_to_90_s": time_to(ours["curve"]), "sb3_time_to_90_s": time_to(sb3["curve"]),
+            }  # fmt: skip
+    if args.plot:
+        plot({k: v for k, v in results.items() if k != "summary"}, args.plot)
+    if "summary" in results:
+        print(json.dumps(results["summary"]))
+
+
+if __name__ == "__main__":
+    main()
