@@ -55,7 +55,9 @@ def main() -> None:
     m = mjx.put_model(env.model)
     d = batched_data(env, args.batch)
     d_pos = jax.jit(jax.vmap(lambda d: mjx.fwd_position(m, d)))(d)
-    d_fwd = jax.jit(jax.vmap(lambda d: mjx.fwd_acceleration(m, mjx.fwd_actuation(m, mjx.fwd_velocity(m, d)))))(d_pos)
+    d_fwd = jax.jit(
+        jax.vmap(lambda d: mjx.fwd_acceleration(m, mjx.fwd_actuation(m, mjx.fwd_velocity(m, d))))
+    )(d_pos)
     stages = {
         "step": (lambda d: mjx.step(m, d), d),
         "fwd_position (kinematics, inertia, collision, constraints)": (lambda d: mjx.fwd_position(m, d), d),

@@ -44,13 +44,13 @@ def time_to(curve: list[dict], level: float = 0.9) -> float | None:
 
 
 def run_ours(task: str, epochs: int, updates_per_step: float | None) -> dict:
-    """Our trainer; updates_per_step None = defaults. -> throughput and learning curve."""
-    probe = TrainConfig(task=task)
+    """Our trainer; updates_per_step None = defaults, else all 16 episodes of an epoch in
+    one cycle followed by updates_per_step x its env steps. -> throughput, learning curve."""
     cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False)
     if updates_per_step is not None:
-        steps_per_cycle = probe.envs * gymnasium.spec(gym_id(task)).max_episode_steps
-        cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False,
-                          updates_per_cycle=int(updates_per_step * steps_per_cycle))  # fmt: skip
+        steps = EPISODES_PER_EPOCH * gymnasium.spec(gym_id(task)).max_episode_steps
+        cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False, envs=EPISODES_PER_EPOCH,
+                          cycles=1, updates_per_cycle=int(updates_per_step * steps))  # fmt: skip
     t0 = time.perf_counter()
     env, epoch_fn, carry = build(cfg, EnvConfig(), DDPGConfig())
     curve, steps = [], cfg.envs * cfg.cycles * env.episode_length
@@ -61,7 +61,13 @@ def run_ours(task: str, epochs: int, updates_per_step: float | None) -> dict:
         success = float(np.asarray(metrics["eval_success"]).mean())
         if epoch > 1:  # the first epoch includes the compile
             train_s += time.perf_counter() - t_epoch
-        curve.append({"env_steps": epoch * steps, "wall_s": time.perf_counter() - t0, "eval_success": success})
+        curve.append(
+            {
+                "env_steps": epoch * steps,
+                "wall_s": time.perf_counter() - t0,
+                "eval_success": success,
+            }
+        )
     updates = cfg.cycles * cfg.updates_per_cycle
     return {"env_steps_per_s": steps * (epochs - 1) / train_s, "updates_per_env_step": updates / steps,
             "curve": curve}  # fmt: skip
@@ -96,7 +102,9 @@ class _Eval:
             wins += bool(info.get("is_success"))
         self.eval_s += time.perf_counter() - t_eval
         wall = time.perf_counter() - self.t0 - self.eval_s  # SB3's clock stops for evaluation
-        self.curve.append({"env_steps": env_steps, "wall_s": wall, "eval_success": wins / EVAL_EPISODES})
+        self.curve.append(
+            {"env_steps": env_steps, "wall_s": wall, "eval_success": wins / EVAL_EPISODES}
+        )
 
 
 def run_sb3(task: str, algo: str, total_steps: int, seed: int = 0) -> dict:
@@ -123,7 +131,11 @@ def run_sb3(task: str, algo: str, total_steps: int, seed: int = 0) -> dict:
     t0 = time.perf_counter()
     model.learn(total_timesteps=total_steps, callback=evaluator.callback)
     train_s = time.perf_counter() - t0 - evaluator.eval_s
-    return {"env_steps_per_s": total_steps / train_s, "updates_per_env_step": 1.0, "curve": evaluator.curve}
+    return {
+        "env_steps_per_s": total_steps / train_s,
+        "updates_per_env_step": 1.0,
+        "curve": evaluator.curve,
+    }
 
 
 def plot(results: dict, path: str) -> None:
@@ -155,21 +167,31 @@ def main() -> None:
     parser.add_argument("--tasks", nargs="+", default=["transit", "pick_move"])
     parser.add_argument("--epochs", type=int, default=20, help="epochs of 16 training episodes")
     parser.add_argument("--algos", nargs="+", default=["ddpg", "sac"])
+    parser.add_argument(
+        "--sb3-epochs",
+        type=int,
+        default=None,
+        help="SB3's budget in epochs (default: --epochs), to see where it reaches 90 %%",
+    )
     parser.add_argument("--plot", default="benchmarks/peer_sb3.png")
     args = parser.parse_args()
     results = {}
     for task in args.tasks:
         episode = gymnasium.spec(gym_id(task)).max_episode_steps
         total = args.epochs * EPISODES_PER_EPOCH * episode
+        sb3_total = (args.sb3_epochs or args.epochs) * EPISODES_PER_EPOCH * episode
         matched = run_ours(task, max(3, args.epochs // 5), updates_per_step=1.0)
         ours = run_ours(task, args.epochs, updates_per_step=None)
         results[(task, "ours_ddpg_her")] = ours
         rows = {"ours_ddpg_her": {"env_steps_per_s_matched": matched["env_steps_per_s"], **ours}}
         for algo in args.algos:
-            results[(task, f"sb3_{algo}_her")] = rows[f"sb3_{algo}_her"] = run_sb3(task, algo, total)
+            results[(task, f"sb3_{algo}_her")] = rows[f"sb3_{algo}_her"] = run_sb3(
+                task, algo, sb3_total
+            )
         for name, res in rows.items():
             summary = {k: v for k, v in res.items() if k != "curve"}
-            print(json.dumps({"task": task, "algo": name, "env_steps": total, **summary,
+            steps = total if name.startswith("ours") else sb3_total
+            print(json.dumps({"task": task, "algo": name, "env_steps": steps, **summary,
                               "final_success": res["curve"][-1]["eval_success"],
                               "time_to_90_s": time_to(res["curve"])}), flush=True)  # fmt: skip
         if task == "transit":

@@ -56,7 +56,11 @@ def pure_updates_per_s(obs_dim: int = 25, n: int = 500) -> float:
     batch = {"obs": jax.random.normal(key, (b, obs_dim)), "next_obs": jax.random.normal(key, (b, obs_dim)),
              "goal": jax.random.normal(key, (b, 3)), "action": jax.random.uniform(key, (b, 4)),
              "reward": -jax.numpy.ones(b)}  # fmt: skip
-    run = jax.jit(lambda a: jax.lax.scan(lambda a, _: (ddpg.update(a, batch, cfg)[0], None), a, None, length=n)[0])
+    run = jax.jit(
+        lambda a: jax.lax.scan(
+            lambda a, _: (ddpg.update(a, batch, cfg)[0], None), a, None, length=n
+        )[0]
+    )
     jax.block_until_ready(run(agent))
     t0 = time.perf_counter()
     jax.block_until_ready(run(agent))

@@ -14,5 +14,8 @@ def test_transit_learns(tmp_path):
                       checkpoint_every=20, out=str(tmp_path), progress=False)  # fmt: skip
     rows = read_metrics(train_run(Args(train=cfg)))
     # Evaluation with the frozen policy (20 episodes per epoch), last 3 epochs, per seed.
-    last = [np.mean([r["eval_success"] for r in rows if r["seed"] == s and r["epoch"] > 17]) for s in range(2)]
+    last = [
+        np.mean([r["eval_success"] for r in rows if r["seed"] == s and r["epoch"] > 17])
+        for s in range(2)
+    ]
     assert np.mean(last) >= 0.9, f"transit eval success over the last 3 epochs, per seed: {last}"

@@ -56,9 +56,17 @@ def test_skill_goal_parameters_map_into_their_boxes(env_factory):
 def test_transfer_terminates_when_the_cube_drops(env_factory):
     env = env_factory("transfer")
     goal = jnp.array([0.7, -0.2, 0.1])
-    held = jnp.zeros(25).at[0:3].set(jnp.array([0.7, -0.3, 0.0])).at[3:6].set(jnp.array([0.7, -0.3, 0.0]))
+    held = (
+        jnp.zeros(25)
+        .at[0:3]
+        .set(jnp.array([0.7, -0.3, 0.0]))
+        .at[3:6]
+        .set(jnp.array([0.7, -0.3, 0.0]))
+    )
     held = held.at[9:11].set(0.017)
-    dropped = held.at[3:6].set(jnp.array([0.7, -0.3, -0.08])).at[6:9].set(jnp.array([0.0, 0.0, -0.08]))
+    dropped = (
+        held.at[3:6].set(jnp.array([0.7, -0.3, -0.08])).at[6:9].set(jnp.array([0.0, 0.0, -0.08]))
+    )
     assert not bool(env.terminated(held, goal))
     assert bool(env.terminated(dropped, goal))
     assert bool(env.terminated(held.at[3:6].set(goal), goal))

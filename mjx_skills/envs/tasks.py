@@ -37,11 +37,13 @@ class PutInContainer(BaxterEnv):
     default_episode_length = 100
     default_threshold = 0.05
     z_tolerance = 0.02
+    support_height = 0.01
+    """Height above the table of what the cube rests on at the goal (the 1 cm floor)."""
 
     def __init__(self, config=None):
         super().__init__(config)
-        floor = self.table_z + 0.01  # the container's bottom plate is 1 cm thick
-        self.goal = jnp.array([*CONTAINER_XY, floor + self.object_half])
+        rest_z = self.table_z + self.support_height + self.object_half
+        self.goal = jnp.array([*CONTAINER_XY, rest_z])
 
     def sample_grip_start(self, key):
         """Above the walls (and on the cubes' side of them), so that the reset's move from
@@ -75,10 +77,7 @@ class PutOn(PutInContainer):
     default_episode_length = 50
     default_threshold = 0.03
     z_tolerance = 0.01
-
-    def __init__(self, config=None):
-        super().__init__(config)
-        self.goal = jnp.array([*CONTAINER_XY, self.table_z + 0.05 + self.object_half])
+    support_height = 0.05  # object B is a 5 cm cube
 
 
 class TakeOut(PutInContainer):
