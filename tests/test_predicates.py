@@ -44,8 +44,12 @@ def test_put_on_requires_contact_height(env_factory):
 def test_skill_goal_parameters_map_into_their_boxes(env_factory):
     transit, grasp, transfer = (env_factory(n) for n in ("transit", "grasp", "transfer"))
     obs = jnp.zeros(25).at[3:6].set(jnp.array([0.7, -0.2, transit.table_z + 0.02]))
-    np.testing.assert_allclose(transit.goal_from_param(-jnp.ones(3), obs), transit.workspace_low, atol=1e-6)
-    np.testing.assert_allclose(transit.goal_from_param(jnp.ones(3), obs), transit.workspace_high, atol=1e-6)
+    np.testing.assert_allclose(
+        transit.goal_from_param(-jnp.ones(3), obs), transit.workspace_low, atol=1e-6
+    )
+    np.testing.assert_allclose(
+        transit.goal_from_param(jnp.ones(3), obs), transit.workspace_high, atol=1e-6
+    )
     lift = [grasp.goal_from_param(jnp.array([p]), obs)[2] - obs[5] for p in (-1.0, 1.0)]
     np.testing.assert_allclose(lift, [0.05, 0.08], atol=1e-6)
     assert transfer.goal_from_param(-jnp.ones(3), obs)[2] >= transfer.table_z
