@@ -147,9 +147,13 @@ ALIASES = {"--physics": "--env.physics"}
 """Short flags for the most used nested options."""
 
 
+def _expand_alias(arg: str) -> str:
+    flag, sep, value = arg.partition("=")
+    return ALIASES.get(flag, flag) + sep + value
+
+
 def main(argv: list[str] | None = None) -> None:
-    argv = sys.argv[1:] if argv is None else argv
-    argv = [ALIASES.get(a.split("=")[0], a.split("=")[0]) + a[len(a.split("=")[0]) :] for a in argv]
+    argv = [_expand_alias(arg) for arg in (sys.argv[1:] if argv is None else argv)]
     try:
         args = tyro.cli(Args, args=argv, description=__doc__)
     except (ValueError, NotImplementedError) as err:

@@ -125,3 +125,20 @@ def test_config_round_trips(tmp_path):
     loaded = load_config(run_dir)
     assert loaded.train == dataclasses.replace(TrainConfig(**TINY), out=str(tmp_path), epochs=1)
     assert loaded.env == EnvConfig() and loaded.ddpg == DDPGConfig()
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["--task", "stack"], "valid: transit, grasp"),
+        (["--method", "sac"], "method"),
+        (["--method", "pas"], "skill library"),
+        (["--epochs", "0"], "epochs"),
+    ],
+)
+def test_cli_bad_input_is_a_clear_error(argv, message, capsys):
+    from mjx_skills.runner import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main([*argv, "--out", "/nonexistent/never-written"])
+    assert message in str(exit_info.value) + capsys.readouterr().err
