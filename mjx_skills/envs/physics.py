@@ -12,6 +12,8 @@ sensors in the forward pass that precedes integration, in C as in MJX). Env code
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import threading
 from collections.abc import Callable
@@ -22,7 +24,12 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 from flax import struct
-from mujoco import mjx, rollout
+from mujoco import rollout
+
+# mujoco.mjx prints "Failed to import warp" when its optional Warp backend is absent, as it
+# is on a CPU; keep that out of every CLI run's output.
+with contextlib.redirect_stdout(io.StringIO()):
+    from mujoco import mjx
 
 # The native state vector: MuJoCo's "full physics" state (time, qpos, qvel, act, ...).
 # Mocap positions are inputs, passed per step together with ctrl.
