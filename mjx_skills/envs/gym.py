@@ -1,9 +1,9 @@
 """Gymnasium goal-conditioned envs on native MuJoCo, for Stable-Baselines3 and friends.
 
 Same XML, controller, start distributions, episode lengths and success predicates as the
-JAX envs: physics runs in `mujoco.mj_step` on one MjData, and the task logic (start and
-goal sampling, action -> controls, sensors -> observation, reward) is the JAX env's own,
-called through small jitted functions, so the two cannot drift apart.
+JAX envs: physics steps in `mujoco.mj_step` on one MjData, and the task logic (reset,
+action -> controls, sensors -> observation, reward) is the JAX env's own, called through
+small jitted functions, so the two cannot drift apart.
 
     import gymnasium as gym, mjx_skills.envs.gym  # registers MjxSkills/<Task>-v0
     env = gym.make("MjxSkills/PickMove-v0")
@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from mjx_skills.config import EnvConfig
-from mjx_skills.envs.baxter import FINGER_CLOSED_CTRL, FINGER_OPEN, PARKED_OBJECT, smooth_path
+from mjx_skills.envs.baxter import smooth_path
 from mjx_skills.envs.registry import ENVS, make
 
 
@@ -36,7 +36,7 @@ class BaxterGymEnv(gymnasium.Env):
         self.render_mode = render_mode
         self._renderer = None
         t = self.task
-        self._sample_start = jax.jit(t.sample_start)
+        self._reset = jax.jit(t.reset)
         self._controls = jax.jit(lambda grip, a: t.action_to_controls(grip, jnp.clip(a, -1, 1)))
         self._path = jax.jit(smooth_path, static_argnums=2)
         self._observe = jax.jit(
@@ -58,26 +58,6 @@ class BaxterGymEnv(gymnasium.Env):
             self.data.mocap_pos[0] = mocap_pos
             mujoco.mj_step(self.model, self.data)
 
-    def _place(self, grip: np.ndarray, object_pos: np.ndarray) -> None:
-        """As BaxterEnv.place: carry the arm to `grip`, then put the object in place."""
-        t, cfg, d = self.task, self.task.config, self.data
-        mujoco.mj_resetData(self.model, d)
-        d.qpos[:7] = np.asarray(t.home_arm_qpos)
-        self._set_object(PARKED_OBJECT)
-        opened = np.full(2, FINGER_OPEN)
-        self._substeps(opened, np.broadcast_to(grip, (cfg.settle_substeps, 3)))
-        self._set_object(object_pos)
-        if t.grasped_start:
-            closed = np.full(2, FINGER_CLOSED_CTRL)
-            self._substeps(closed, np.broadcast_to(grip, (cfg.grasp_settle_substeps, 3)))
-        else:
-            self._substeps(opened, grip[None])
-
-    def _set_object(self, pos) -> None:
-        qadr, vadr = self.task.object_qpos_adr, self.task.object_qvel_adr
-        self.data.qpos[qadr : qadr + 7] = [*pos, 1.0, 0.0, 0.0, 0.0]
-        self.data.qvel[vadr : vadr + 6] = 0.0
-
     # ------------------------------------------------------------------ gymnasium API
     def _obs(self) -> dict[str, np.ndarray]:
         obs, achieved = self._observe(np.asarray(self.data.sensordata, np.float32))
@@ -94,9 +74,13 @@ class BaxterGymEnv(gymnasium.Env):
             key = jnp.asarray(options["jax_key"])
         else:
             key = jax.random.PRNGKey(int(self.np_random.integers(2**31)))
-        grip, object_pos, goal = (np.asarray(x, np.float64) for x in self._sample_start(key))
-        self._place(grip, object_pos)
-        self._goal = goal.astype(np.float32)
+        # The JAX env's own (jitted, native-backend) reset places arm and cube; its state
+        # vector and sensors are loaded into this MjData.
+        state = self._reset(key)
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        mujoco.mj_setState(self.model, self.data, np.asarray(state.physics.data, np.float64), spec)
+        self.data.sensordata[:] = np.asarray(state.physics.sensordata)
+        self._goal = np.asarray(state.desired_goal, np.float32)
         obs = self._obs()
         return obs, {"is_success": bool(self._success(obs))}
 
