@@ -65,7 +65,13 @@ def run_ours(task: str, epochs: int, updates_per_step: float | None) -> dict:
         carry, metrics = epoch_fn(carry)
         success = float(np.asarray(metrics["eval_success"]).mean())
         train_s += time.perf_counter() - t_epoch
-        curve.append({"env_steps": epoch * steps, "wall_s": time.perf_counter() - t0, "eval_success": success})
+        curve.append(
+            {
+                "env_steps": epoch * steps,
+                "wall_s": time.perf_counter() - t0,
+                "eval_success": success,
+            }
+        )
     updates = cfg.cycles * cfg.updates_per_cycle
     return {"env_steps_per_s": steps * epochs / train_s, "updates_per_env_step": updates / steps,
             "compile_s": compile_s, "curve": curve}  # fmt: skip

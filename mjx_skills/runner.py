@@ -158,5 +158,9 @@ def main(argv: list[str] | None = None) -> None:
         args = tyro.cli(Args, args=argv, description=__doc__)
     except (ValueError, NotImplementedError) as err:
         raise SystemExit(f"error: {err}") from None
-    run_dir = train_run(args)
+    try:
+        run_dir = train_run(args)
+    except (FloatingPointError, FileNotFoundError, ValueError) as err:
+        # Diverged losses, a bad --resume directory or a checkpoint of another run.
+        raise SystemExit(f"error: {err}") from None
     print(summary(run_dir))

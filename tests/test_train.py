@@ -134,6 +134,7 @@ def test_config_round_trips(tmp_path):
         (["--method", "sac"], "method"),
         (["--method", "pas"], "skill library"),
         (["--epochs", "0"], "epochs"),
+        (["--resume", "/nonexistent/run"], "not a run directory"),
     ],
 )
 def test_cli_bad_input_is_a_clear_error(argv, message, capsys):
