@@ -26,6 +26,13 @@ SENSORS = (
     "object_pos", "object_quat", "object_linvel", "object_angvel",
 )  # fmt: skip
 
+# Observation layout (BaxterEnv.observation), used by skills, scripted controllers and tests.
+OBS_GRIP = slice(0, 3)
+OBS_OBJECT = slice(3, 6)
+OBS_REL = slice(6, 9)  # object - grip
+OBS_FINGERS = slice(9, 11)
+OBS_GRIP_VEL = slice(20, 23)
+
 FINGER_OPEN = 0.020833  # finger travel in m (each); ctrl = -0.02 squeezes past closed.
 FINGER_CLOSED_CTRL = -0.02
 HOME_GRIP = np.array([0.7, -0.2, 0.1])  # grip point of the home pose, torso frame
@@ -64,15 +71,6 @@ def smooth_path(start: jax.Array, end: jax.Array, n_substeps: int) -> jax.Array:
     phase = jnp.arange(1, n_substeps + 1, dtype=jnp.float32) / n_substeps
     s = 0.5 * (1.0 - jnp.cos(jnp.pi * phase))
     return start + s[:, None] * (end - start)
-
-
-def is_grasped(rel: jax.Array, fingers: jax.Array, object_half: float) -> jax.Array:
-    """Object (rel = object - grip, (3,)) between the pads, and the fingers (2,) stopped by
-    it: their summed opening lies between a closed grip and fully open. The sum, not each
-    finger: a held cube accelerated sideways shifts both fingers together."""
-    near = (jnp.linalg.norm(rel[..., :2], axis=-1) < 0.015) & (jnp.abs(rel[..., 2]) < 0.025)
-    gap = jnp.sum(fingers, axis=-1)
-    return near & (gap > 0.5 * object_half) & (gap < 1.96 * FINGER_OPEN)
 
 
 def quat_to_euler(q: jax.Array) -> jax.Array:
@@ -146,9 +144,14 @@ class BaxterEnv:
             axis=-1,
         )  # fmt: skip
 
-    def grasped(self, sens: dict[str, jax.Array]) -> jax.Array:
-        fingers = jnp.concatenate([sens["finger_l_pos"], sens["finger_r_pos"]], axis=-1)
-        return is_grasped(sens["object_pos"] - sens["grip_pos"], fingers, self.object_half)
+    def grasped(self, obs: jax.Array) -> jax.Array:
+        """The cube held, read from an observation (..., 25): between the pads, and the
+        fingers' summed opening between a closed grip and fully open (the sum, not each
+        finger: a held cube accelerated sideways shifts both fingers together)."""
+        rel = obs[..., OBS_REL]
+        near = (jnp.linalg.norm(rel[..., :2], axis=-1) < 0.015) & (jnp.abs(rel[..., 2]) < 0.025)
+        gap = jnp.sum(obs[..., OBS_FINGERS], axis=-1)
+        return near & (gap > 0.5 * self.object_half) & (gap < 1.96 * FINGER_OPEN)
 
     # ------------------------------------------------------------------ task hooks
     def sample_start(self, key: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
@@ -221,9 +224,10 @@ class BaxterEnv:
         success = self.is_success(achieved, state.desired_goal)
         distance = jnp.linalg.norm(achieved - state.desired_goal)
         metrics = {**metrics, "success": success.astype(jnp.float32), "distance": distance}
-        info = {**state.info, "grasped": self.grasped(sens)}
+        obs = self.observation(sens)
+        info = {**state.info, "grasped": self.grasped(obs)}
         return state.replace(
-            physics=physics, obs=self.observation(sens), achieved_goal=achieved,
+            physics=physics, obs=obs, achieved_goal=achieved,
             reward=success.astype(jnp.float32) - 1.0, metrics=metrics, info=info,
         )  # fmt: skip
 

@@ -12,7 +12,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
-from mjx_skills.envs.baxter import BaxterEnv, is_grasped
+from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, BaxterEnv
 from mjx_skills.envs.tasks import ContainerWall, PutInContainer, TakeOut
 
 OPEN, CLOSE = 1.0, -1.0
@@ -22,11 +22,6 @@ APPROACH_HEIGHT = 0.035  # grip above the cube's centre before descending: pads 
 def _toward(env: BaxterEnv, grip: jax.Array, target: jax.Array, gripper: jax.Array) -> jax.Array:
     delta = jnp.clip((target - grip) / env.config.action_scale, -1.0, 1.0)
     return jnp.concatenate([delta, jnp.reshape(gripper, (1,))])
-
-
-def holding(env: BaxterEnv, obs: jax.Array) -> jax.Array:
-    """The cube held, read from the observation (cf. BaxterEnv.grasped)."""
-    return is_grasped(obs[6:9], obs[9:11], env.object_half)
 
 
 def _detour(env: BaxterEnv, grip: jax.Array, target: jax.Array) -> jax.Array:
@@ -47,10 +42,10 @@ def _detour(env: BaxterEnv, grip: jax.Array, target: jax.Array) -> jax.Array:
 def _carry_target(env: BaxterEnv, obs: jax.Array, goal: jax.Array, place: bool) -> jax.Array:
     """Grip target that brings the held cube to the goal (the cube may sit off-centre in
     the grip); place tasks carry above the walls first and then descend."""
-    offset = obs[6:9]  # object - grip
+    offset = obs[OBS_REL]
     if place:
         safe = jnp.array([goal[0], goal[1], jnp.maximum(goal[2], env.table_z + 0.14)])
-        far = jnp.linalg.norm(obs[3:5] - goal[:2]) > 0.015
+        far = jnp.linalg.norm(obs[OBS_OBJECT][:2] - goal[:2]) > 0.015
         goal = jnp.where(far, safe, goal)
     return goal - offset
 
@@ -60,15 +55,15 @@ def make_scripted_policy(env: BaxterEnv) -> Callable[[jax.Array, jax.Array], jax
     if not env.goal_is_object:  # transit: go straight to the goal, fingers open
 
         def transit(obs, goal):
-            return _toward(env, obs[0:3], goal, jnp.asarray(OPEN))
+            return _toward(env, obs[OBS_GRIP], goal, jnp.asarray(OPEN))
 
         return transit
     place = isinstance(env, PutInContainer) and not isinstance(env, TakeOut)
     detour = isinstance(env, ContainerWall)
 
     def policy(obs: jax.Array, goal: jax.Array) -> jax.Array:
-        grip, obj = obs[0:3], obs[3:6]
-        held = holding(env, obs)
+        grip, obj = obs[OBS_GRIP], obs[OBS_OBJECT]
+        held = env.grasped(obs)
         # --- reach and grasp
         # Approach at the current height (or higher), then descend straight down: no
         # sweeping through walls or over the cube with the fingers low.

@@ -70,10 +70,6 @@ class PhysicsBackend(Protocol):
 
     def qvel(self, state: PhysicsState) -> jax.Array: ...
 
-    def set_qpos_qvel(
-        self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array
-    ) -> PhysicsState: ...
-
 
 class MjxBackend:
     """MJX: the whole step is traced into the caller's XLA program."""
@@ -125,9 +121,6 @@ class MjxBackend:
 
     def qvel(self, state: PhysicsState) -> jax.Array:
         return state.data.qvel
-
-    def set_qpos_qvel(self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
-        return state.replace(data=state.data.replace(qpos=qpos, qvel=qvel))
 
 
 class NativeBackend:
@@ -198,7 +191,7 @@ class NativeBackend:
     def settle(self, state, mocap_pos, phases, edit):
         (ctrl_a, n_a), (ctrl_b, n_b) = phases
         state = self.step(state, ctrl_a, jnp.broadcast_to(mocap_pos, (n_a, 3)))
-        state = self.set_qpos_qvel(state, *edit(self.qpos(state), self.qvel(state)))
+        state = self._set_qpos_qvel(state, *edit(self.qpos(state), self.qvel(state)))
         return self.step(state, ctrl_b, jnp.broadcast_to(mocap_pos, (n_b, 3)))
 
     def qpos(self, state: PhysicsState) -> jax.Array:
@@ -207,7 +200,7 @@ class NativeBackend:
     def qvel(self, state: PhysicsState) -> jax.Array:
         return state.data[..., self._qvel_slice]
 
-    def set_qpos_qvel(self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
+    def _set_qpos_qvel(self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
         data = state.data.at[..., self._qpos_slice].set(qpos).at[..., self._qvel_slice].set(qvel)
         return state.replace(data=data)
 

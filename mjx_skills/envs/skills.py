@@ -10,12 +10,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_skills.envs.baxter import BaxterEnv, is_grasped
+from mjx_skills.envs.baxter import OBS_GRIP, OBS_GRIP_VEL, OBS_OBJECT, BaxterEnv
 
-# Observation layout (see BaxterEnv.observation).
-GRIP_POS = (0, 1, 2)
-GRIP_VEL = (20, 21, 22)
-OBJECT_POS = (3, 4, 5)
 OBJECT_REGION = ((0.55, -0.45), (0.8, 0.05))
 
 
@@ -31,7 +27,7 @@ class Transit(BaxterEnv):
     default_episode_length = 20
     goal_is_object = False
     param_dim = 3
-    state_dims = GRIP_POS + GRIP_VEL
+    state_dims = tuple(range(25))[OBS_GRIP] + tuple(range(25))[OBS_GRIP_VEL]
 
     def sample_start(self, key):
         k_grip, k_obj, k_goal = jax.random.split(key, 3)
@@ -45,7 +41,7 @@ class Transit(BaxterEnv):
         return _lerp(param, self.workspace_low, self.workspace_high)
 
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
-        return self.is_success(obs[jnp.array(GRIP_POS)], goal)
+        return self.is_success(obs[..., OBS_GRIP], goal)
 
 
 class Grasp(BaxterEnv):
@@ -69,10 +65,11 @@ class Grasp(BaxterEnv):
 
     def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
         lift = _lerp(param[..., 0], *self.lift_range)
-        return obs[..., 3:6] + jnp.stack([0.0 * lift, 0.0 * lift, lift], axis=-1)
+        zero = jnp.zeros_like(lift)
+        return obs[..., OBS_OBJECT] + jnp.stack([zero, zero, lift], axis=-1)
 
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
-        return self.is_success(obs[..., 3:6], goal)
+        return self.is_success(obs[..., OBS_OBJECT], goal)
 
 
 class Transfer(BaxterEnv):
@@ -102,5 +99,4 @@ class Transfer(BaxterEnv):
 
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """At the goal, or the cube dropped (nothing left to transfer)."""
-        dropped = ~is_grasped(obs[..., 6:9], obs[..., 9:11], self.object_half)
-        return self.is_success(obs[..., 3:6], goal) | dropped
+        return self.is_success(obs[..., OBS_OBJECT], goal) | ~self.grasped(obs)
