@@ -180,5 +180,5 @@ class TrainConfig:
         )
         for name in ("epochs", "seeds", "envs", "cycles", "eval_episodes", "checkpoint_every"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")
-        _check(self.updates_per_cycle >= 0, "updates_per_cycle", "must be >= 0")
+        _check(self.updates_per_cycle >= 1, "updates_per_cycle", "must be >= 1")
         _check(self.replay_capacity >= 1, "replay_capacity", "must be >= 1")

@@ -55,23 +55,42 @@ def run_episodes(env: BaxterEnv, policy, key: jax.Array, n: int):
     return episodes, final
 
 
-def make_train_epoch(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
-    """-> train_epoch(carry) -> (carry, metrics): one epoch, pure and jittable."""
+def make_evaluate(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
+    """-> evaluate(agent, key) -> {eval_success, eval_distance}: `eval_episodes` episodes with
+    the frozen deterministic policy, success read at the last step (as the thesis)."""
+
+    def evaluate(agent: ddpg.DDPGState, key: jax.Array) -> dict[str, jax.Array]:
+        policy = lambda k, obs, goal: ddpg.act(agent, obs, goal, agent_cfg)
+        _, final = run_episodes(env, policy, key, train.eval_episodes)
+        return {
+            "eval_success": final.metrics["success"].mean(),
+            "eval_distance": final.metrics["distance"].mean(),
+        }
+
+    return evaluate
+
+
+def make_train_cycles(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
+    """-> train_cycles(carry) -> (carry, metrics): an epoch's `cycles` collect-store-update
+    cycles without evaluation, pure and jittable."""
 
     def explore_policy(agent):
         return lambda k, obs, goal: ddpg.explore(agent, k, obs, goal, agent_cfg)
 
-    def greedy_policy(agent):
-        return lambda k, obs, goal: ddpg.act(agent, obs, goal, agent_cfg)
-
-    def gradient_step(carry, key):
-        agent, buffer = carry
+    def train_agent(agent, buffer, key):
+        """updates_per_cycle gradient steps. The buffer and normaliser are fixed while they
+        run, so all their batches are sampled, relabelled and normalised up front in a few
+        large kernels, and the scan body holds only the networks' update."""
+        n, b = train.updates_per_cycle, agent_cfg.batch_size
         batch = her.sample_batch(
-            buffer, key, agent_cfg.batch_size, env.compute_reward,
-            agent_cfg.her_strategy, agent_cfg.relabel_prob,
-        )  # fmt: skip
-        agent, metrics = ddpg.update(agent, batch, agent_cfg)
-        return (agent, buffer), metrics
+            buffer, key, n * b, env.compute_reward, agent_cfg.her_strategy, agent_cfg.relabel_prob
+        )
+        batches = jax.tree.map(
+            lambda x: x.reshape(n, b, *x.shape[1:]), ddpg.normalize_batch(agent, batch, agent_cfg)
+        )
+        return jax.lax.scan(
+            lambda a, nbatch: ddpg.update_normalized(a, nbatch, agent_cfg), agent, batches
+        )
 
     def cycle(carry: TrainCarry, _):
         key, k_roll, k_upd = jax.random.split(carry.key, 3)
@@ -82,9 +101,7 @@ def make_train_epoch(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
             jnp.concatenate([episodes["g"], episodes["ag"]], axis=1).reshape(-1, env.goal_dim),
         )
         buffer = replay.add(carry.replay, episodes)
-        (agent, buffer), losses = jax.lax.scan(
-            gradient_step, (agent, buffer), jax.random.split(k_upd, train.updates_per_cycle)
-        )
+        agent, losses = train_agent(agent, buffer, k_upd)
         carry = carry.replace(agent=agent, replay=buffer, key=key)
         stats = {
             "train_success": final.metrics["success"].mean(),
@@ -93,13 +110,23 @@ def make_train_epoch(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
         }
         return carry, stats
 
-    def train_epoch(carry: TrainCarry):
+    def train_cycles(carry: TrainCarry):
         carry, stats = jax.lax.scan(cycle, carry, None, length=train.cycles)
+        return carry, jax.tree.map(jnp.mean, stats)
+
+    return train_cycles
+
+
+def make_train_epoch(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
+    """-> train_epoch(carry) -> (carry, metrics): the cycles, then evaluation; pure and
+    jittable."""
+    train_cycles = make_train_cycles(env, train, agent_cfg)
+    evaluate = make_evaluate(env, train, agent_cfg)
+
+    def train_epoch(carry: TrainCarry):
+        carry, metrics = train_cycles(carry)
         key, k_eval = jax.random.split(carry.key)
-        _, final = run_episodes(env, greedy_policy(carry.agent), k_eval, train.eval_episodes)
-        metrics = jax.tree.map(jnp.mean, stats)
-        metrics["eval_success"] = final.metrics["success"].mean()
-        metrics["eval_distance"] = final.metrics["distance"].mean()
+        metrics = {**metrics, **evaluate(carry.agent, k_eval)}
         return carry.replace(key=key, epoch=carry.epoch + 1), metrics
 
     return train_epoch
