@@ -10,7 +10,7 @@ SEEDS   ?= 1
 OUT     ?= runs
 ARGS    ?=
 
-.PHONY: setup train skills sweep bench test test-fast lint notebook clean
+.PHONY: setup train skills sweep bench bench-peer test test-fast lint notebook clean
 
 setup: $(STAMP)
 
@@ -33,7 +33,12 @@ sweep: setup
 
 bench: setup
 	$(BIN)/python benchmarks/physics.py
-	@test -f benchmarks/train_throughput.py && $(BIN)/python benchmarks/train_throughput.py || echo "make bench: benchmarks/train_throughput.py is not built yet"
+	$(BIN)/python benchmarks/train_throughput.py
+
+# Ours against Stable-Baselines3 (installs the bench extra: torch CPU, SB3); about 25 min.
+bench-peer: setup
+	$(BIN)/pip install --quiet -e '.[bench]'
+	MJX_SKILLS_CACHE_DIR=off $(BIN)/python benchmarks/peer_sb3.py --tasks transit --sb3-epochs 80 --seeds 3
 
 # The whole suite, learning tests included (what CI runs).
 test: setup

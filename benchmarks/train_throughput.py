@@ -6,7 +6,9 @@ updates, evaluation) at several numbers of parallel envs.
 One JSON row per env count; the last line is the row for the largest count (256 by default).
 `env_steps_per_s` counts training and evaluation steps; `updates_per_s` the epoch's gradient
 steps (40 per epoch here) per second of the whole epoch; `pure_updates_per_s` gradient steps
-per second alone.
+per second alone (default networks, with LayerNorm). Two rows before them give the update
+alone with and without LayerNorm: its FLOPs (XLA's count), the GFLOP/s it reaches, and the
+ratio to a chain of matmuls of the hidden layers' shape measured in the same run.
 """
 
 from __future__ import annotations
@@ -45,26 +47,51 @@ def measure(task: str, envs: int, epochs: int, physics: str) -> dict:
     }  # fmt: skip
 
 
-def pure_updates_per_s(obs_dim: int = 25, n: int = 500) -> float:
-    """DDPG+HER gradient steps per second alone (batch 128, sample + relabel excluded)."""
+def pure_updates(layer_norm: bool, obs_dim: int = 25, n: int = 1000) -> dict:
+    """Gradient steps per second alone, as the trainer runs them (a scan of
+    `update_normalized` over batches sampled beforehand), with XLA's FLOP count per step and
+    the GFLOP/s that makes. Batch 128, 3 x 64 nets."""
+    import jax.numpy as jnp
+
     from mjx_skills import ddpg
 
-    cfg = DDPGConfig()
+    cfg = DDPGConfig(layer_norm=layer_norm)
     key = jax.random.PRNGKey(0)
     agent = ddpg.init(key, obs_dim, 3, 4, cfg)
     b = cfg.batch_size
-    batch = {"obs": jax.random.normal(key, (b, obs_dim)), "next_obs": jax.random.normal(key, (b, obs_dim)),
-             "goal": jax.random.normal(key, (b, 3)), "action": jax.random.uniform(key, (b, 4)),
-             "reward": -jax.numpy.ones(b)}  # fmt: skip
-    run = jax.jit(
-        lambda a: jax.lax.scan(
-            lambda a, _: (ddpg.update(a, batch, cfg)[0], None), a, None, length=n
-        )[0]
-    )
-    jax.block_until_ready(run(agent))
-    t0 = time.perf_counter()
-    jax.block_until_ready(run(agent))
-    return n / (time.perf_counter() - t0)
+    batches = {"obs": jax.random.normal(key, (n, b, obs_dim)), "next_obs": jax.random.normal(key, (n, b, obs_dim)),
+               "goal": jax.random.normal(key, (n, b, 3)), "action": jax.random.uniform(key, (n, b, 4)),
+               "reward": -jnp.ones((n, b))}  # fmt: skip
+    step = lambda a, nb: (ddpg.update_normalized(a, nb, cfg)[0], None)
+    run = jax.jit(lambda a, bs: jax.lax.scan(step, a, bs)[0]).lower(agent, batches).compile()
+    one = jax.jit(step).lower(agent, jax.tree.map(lambda x: x[0], batches)).compile()
+    flops = one.cost_analysis()["flops"]
+    rate = _best_rate(lambda: run(agent, batches), n)
+    return {"updates_per_s": round(rate, 1), "mflop_per_update": round(flops / 1e6, 2),
+            "update_gflops": round(rate * flops / 1e9, 1)}  # fmt: skip
+
+
+def matmul_gflops(n: int = 5000) -> float:
+    """Reference: GFLOP/s of a chain of (128 x 64) @ (64 x 64) matmuls + tanh, the shape of
+    the networks' hidden layers: the most the update's arithmetic can run at here."""
+    import jax.numpy as jnp
+
+    x = jax.random.normal(jax.random.PRNGKey(0), (128, 64))
+    w = jax.random.normal(jax.random.PRNGKey(1), (64, 64)) / 8.0
+    chain = jax.jit(lambda x, w: jax.lax.fori_loop(0, n, lambda i, x: jnp.tanh(x @ w), x))
+    chain = chain.lower(x, w).compile()
+    return _best_rate(lambda: chain(x, w), n) * 2 * 128 * 64 * 64 / 1e9
+
+
+def _best_rate(fn, n: int, repeats: int = 3) -> float:
+    """n / the fastest of `repeats` timed calls (after one warm-up): the machine is shared."""
+    jax.block_until_ready(fn())
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn())
+        times.append(time.perf_counter() - t0)
+    return n / min(times)
 
 
 def main() -> None:
@@ -74,9 +101,17 @@ def main() -> None:
     parser.add_argument("--epochs", type=int, default=2)
     parser.add_argument("--physics", default="auto")
     args = parser.parse_args()
-    row, updates = {}, round(pure_updates_per_s(), 1)
+    peak = round(matmul_gflops(), 1)
+    updates = {}
+    for layer_norm in (True, False):
+        u = pure_updates(layer_norm)
+        updates[layer_norm] = u
+        print(json.dumps({"layer_norm": layer_norm, **u, "matmul_gflops": peak,
+                          "ratio_to_matmul": round(u["update_gflops"] / peak, 2)}), flush=True)  # fmt: skip
+    row = {}
     for envs in args.envs:
-        row = {**measure(args.task, envs, args.epochs, args.physics), "pure_updates_per_s": updates}
+        row = {**measure(args.task, envs, args.epochs, args.physics),
+               "pure_updates_per_s": updates[True]["updates_per_s"]}  # fmt: skip
         print(json.dumps(row), flush=True)
     print(json.dumps(row))
 

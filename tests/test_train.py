@@ -113,6 +113,9 @@ def test_bad_input_names_the_field():
         TrainConfig(envs=0)
     with pytest.raises(ValueError, match="gamma"):
         DDPGConfig(gamma=1.5)
+    # No updates would leave the epoch's loss metrics as means of nothing (NaN).
+    with pytest.raises(ValueError, match="updates_per_cycle"):
+        TrainConfig(updates_per_cycle=0)
 
 
 def test_non_finite_metrics_stop_the_run():
