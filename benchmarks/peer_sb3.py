@@ -265,12 +265,12 @@ def main() -> None:
         total = args.epochs * EPISODES_PER_EPOCH * episode
         sb3_total = (args.sb3_epochs or args.epochs) * EPISODES_PER_EPOCH * episode
         for seed in range(args.seeds):
-            # Matched: SB3's networks have no LayerNorm, so ours runs without it too.
-            matched = run_ours(task, max(5, args.epochs // 4), 1.0, layer_norm=False, seed=seed)
-            ours = run_ours(task, args.epochs, None, layer_norm=args.ours_layer_norm, seed=seed)
-            runs = {
-                "ours_ddpg_her": {"env_steps_per_s_matched": matched["env_steps_per_s"], **ours}
+            matched = {
+                f"env_steps_per_s_matched_{envs}_envs": ours_matched_throughput(task, envs, seed)
+                for envs in args.matched_envs
             }
+            ours = run_ours(task, args.epochs, args.ours_layer_norm, seed)
+            runs = {"ours_ddpg_her": {**matched, **ours}}
             for algo in args.algos:
                 if seed < (args.sac_seeds if algo == "sac" else args.seeds):
                     runs[f"sb3_{algo}_her"] = run_sb3(task, algo, sb3_total, seed)

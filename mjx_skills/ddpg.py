@@ -165,9 +165,8 @@ def update(
 def update_normalized(
     state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig
 ) -> tuple[DDPGState, dict[str, jax.Array]]:
-    """`update` on a batch already passed through `normalize_batch`. Keeping normalisation
-    out of the gradient-step loop saves kernels: on a CPU each costs microseconds of launch,
-    more than the 3 x 64 networks' arithmetic."""
+    """`update` on a batch already passed through `normalize_batch`, so that a cycle's
+    batches can be sampled and normalised in one pass before the gradient-step loop."""
     actor, critic = _actor(state.act_dim, config), _critic(config)
     o, g, action = nbatch["obs"], nbatch["goal"], nbatch["action"]
     y = _td_target_normalized(state, nbatch, config)
