@@ -46,8 +46,9 @@ from mjx_skills.train import init_carry, make_evaluate, make_train_cycles
 EPISODES_PER_EPOCH, EVAL_EPISODES = 16, 20
 
 
-def time_to(curve: list[dict], level: float = 0.9) -> float | None:
-    return next((p["wall_s"] for p in curve if p["eval_success"] >= level), None)
+def time_to(curve: list[dict], level: float = 0.9, key: str = "wall_s") -> float | None:
+    """`key` (wall_s or env_steps) of the first evaluation at or above `level`."""
+    return next((p[key] for p in curve if p["eval_success"] >= level), None)
 
 
 def _compiled_cycles(cfg: TrainConfig, agent_cfg: DDPGConfig):
@@ -280,7 +281,8 @@ def main() -> None:
                 steps = total if name.startswith("ours") else sb3_total
                 print(json.dumps({"task": task, "algo": name, "seed": seed, "env_steps": steps,
                                   **summary_row, "final_success": res["curve"][-1]["eval_success"],
-                                  "time_to_90_s": time_to(res["curve"])}), flush=True)  # fmt: skip
+                                  "time_to_90_s": time_to(res["curve"]),
+                                  "env_steps_to_90": time_to(res["curve"], key="env_steps")}), flush=True)  # fmt: skip
         if task == "transit" and "ddpg" in args.algos:
             summary = summarize(
                 task,
