@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from mjx_skills.envs import ENVS
+from mjx_skills.envs.baxter import OBS_FINGERS, OBS_GRIP, OBS_OBJECT, OBS_REL
 
 
 @pytest.mark.parametrize("name", list(ENVS))
@@ -43,14 +44,14 @@ def test_put_on_requires_contact_height(env_factory):
 
 def test_skill_goal_parameters_map_into_their_boxes(env_factory):
     transit, grasp, transfer = (env_factory(n) for n in ("transit", "grasp", "transfer"))
-    obs = jnp.zeros(25).at[3:6].set(jnp.array([0.7, -0.2, transit.table_z + 0.02]))
+    obs = jnp.zeros(25).at[OBS_OBJECT].set(jnp.array([0.7, -0.2, transit.table_z + 0.02]))
     np.testing.assert_allclose(
         transit.goal_from_param(-jnp.ones(3), obs), transit.workspace_low, atol=1e-6
     )
     np.testing.assert_allclose(
         transit.goal_from_param(jnp.ones(3), obs), transit.workspace_high, atol=1e-6
     )
-    lift = [grasp.goal_from_param(jnp.array([p]), obs)[2] - obs[5] for p in (-1.0, 1.0)]
+    lift = [grasp.goal_from_param(jnp.array([p]), obs)[2] - obs[OBS_OBJECT][2] for p in (-1.0, 1.0)]
     np.testing.assert_allclose(lift, [0.05, 0.08], atol=1e-6)
     assert transfer.goal_from_param(-jnp.ones(3), obs)[2] >= transfer.table_z
     assert (transit.param_dim, grasp.param_dim, transfer.param_dim) == (3, 1, 3)
@@ -60,17 +61,11 @@ def test_skill_goal_parameters_map_into_their_boxes(env_factory):
 def test_transfer_terminates_when_the_cube_drops(env_factory):
     env = env_factory("transfer")
     goal = jnp.array([0.7, -0.2, 0.1])
-    held = (
-        jnp.zeros(25)
-        .at[0:3]
-        .set(jnp.array([0.7, -0.3, 0.0]))
-        .at[3:6]
-        .set(jnp.array([0.7, -0.3, 0.0]))
-    )
-    held = held.at[9:11].set(0.017)
-    dropped = (
-        held.at[3:6].set(jnp.array([0.7, -0.3, -0.08])).at[6:9].set(jnp.array([0.0, 0.0, -0.08]))
-    )
+    start = jnp.array([0.7, -0.3, 0.0])
+    held = jnp.zeros(25).at[OBS_GRIP].set(start).at[OBS_OBJECT].set(start)
+    held = held.at[OBS_FINGERS].set(0.017)
+    fallen = jnp.array([0.0, 0.0, -0.08])
+    dropped = held.at[OBS_OBJECT].set(start + fallen).at[OBS_REL].set(fallen)
     assert not bool(env.terminated(held, goal))
     assert bool(env.terminated(dropped, goal))
-    assert bool(env.terminated(held.at[3:6].set(goal), goal))
+    assert bool(env.terminated(held.at[OBS_OBJECT].set(goal), goal))
