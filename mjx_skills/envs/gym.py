@@ -37,8 +37,8 @@ class BaxterGymEnv(gymnasium.Env):
         self._renderer = None
         t = self.task
         self._reset = jax.jit(t.reset)
-        # One jitted call before and one after the substeps: each call from Python costs
-        # about 0.1-0.2 ms of dispatch, as much as a third of the physics.
+        # One jitted call before and one after the substeps: each call from Python pays a
+        # dispatch, so the step's task logic is grouped into as few calls as possible.
         self._plan = jax.jit(self._plan_fn)
         self._observe = jax.jit(self._observe_fn)
         self._reward = jax.jit(t.compute_reward)
