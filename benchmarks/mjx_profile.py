@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 from mujoco import mjx
 
+from mjx_skills import compile_cache
 from mjx_skills.envs import make
 
 
@@ -49,6 +50,7 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=None, help="solver iterations")
     parser.add_argument("--ls-iterations", type=int, default=None)
     args = parser.parse_args()
+    compile_cache.enable()
     overrides = {k: v for k, v in (("solver_iterations", args.iterations),
                                    ("ls_iterations", args.ls_iterations)) if v is not None}  # fmt: skip
     env = make(args.task, physics="native", **overrides)

@@ -38,9 +38,11 @@ import jax
 import numpy as np
 
 import mjx_skills.envs.gym  # noqa: F401  (registers MjxSkills/*-v0)
+from mjx_skills import compile_cache
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
 from mjx_skills.envs import make
 from mjx_skills.envs.gym import gym_id
+from mjx_skills.methods import make_ddpg_her
 from mjx_skills.train import init_carry, make_evaluate, make_train_cycles
 
 EPISODES_PER_EPOCH, EVAL_EPISODES = 16, 20
@@ -52,11 +54,12 @@ def time_to(curve: list[dict], level: float = 0.9, key: str = "wall_s") -> float
 
 
 def _compiled_cycles(cfg: TrainConfig, agent_cfg: DDPGConfig):
-    """-> (env, initial carry, compiled train_cycles) for one seed."""
+    """-> (env, learner, initial carry, compiled train_cycles) for one seed."""
     env = make(cfg.task, EnvConfig())
-    carry = jax.jit(lambda k: init_carry(env, cfg, agent_cfg, k))(jax.random.PRNGKey(cfg.seed))
-    cycles_fn = jax.jit(make_train_cycles(env, cfg, agent_cfg), donate_argnums=0)
-    return env, carry, cycles_fn.lower(carry).compile()
+    learner = make_ddpg_her(env, cfg, agent_cfg)
+    carry = jax.jit(lambda k: init_carry(learner, env, cfg, k))(jax.random.PRNGKey(cfg.seed))
+    cycles_fn = jax.jit(make_train_cycles(learner, env, cfg), donate_argnums=0)
+    return env, learner, carry, cycles_fn.lower(carry).compile()
 
 
 def ours_matched_throughput(task: str, envs: int, seed: int = 0, min_steps: int = 4000) -> float:
@@ -66,7 +69,7 @@ def ours_matched_throughput(task: str, envs: int, seed: int = 0, min_steps: int 
     T = gymnasium.spec(gym_id(task)).max_episode_steps
     cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False, seed=seed,
                       envs=envs, cycles=1, updates_per_cycle=envs * T)  # fmt: skip
-    _, carry, cycles_fn = _compiled_cycles(cfg, DDPGConfig(layer_norm=False))
+    _, _, carry, cycles_fn = _compiled_cycles(cfg, DDPGConfig(layer_norm=False))
     carry, _ = cycles_fn(carry)  # the first cycle fills the buffer from empty; not timed
     jax.block_until_ready(carry)
     n = max(3, -(-min_steps // (envs * T)))
@@ -84,17 +87,17 @@ def run_ours(task: str, epochs: int, layer_norm: bool, seed: int = 0) -> dict:
     cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False, seed=seed)
     agent_cfg = DDPGConfig(layer_norm=layer_norm)
     t0 = time.perf_counter()
-    env, carry, cycles_fn = _compiled_cycles(cfg, agent_cfg)
+    env, learner, carry, cycles_fn = _compiled_cycles(cfg, agent_cfg)
     compile_s = time.perf_counter() - t0  # build + compile: what a cold start pays once
-    evaluate = jax.jit(make_evaluate(env, cfg, agent_cfg))
-    jax.block_until_ready(evaluate(carry.agent, carry.key))  # its compile is not timed either
+    evaluate = jax.jit(make_evaluate(learner, env, cfg))
+    jax.block_until_ready(evaluate(carry.agent, None, carry.key))  # its compile: not timed either
     curve, steps, train_s = [], cfg.envs * cfg.cycles * env.episode_length, 0.0
     for epoch in range(1, epochs + 1):
         t_epoch = time.perf_counter()
         carry, _ = cycles_fn(carry)
         jax.block_until_ready(carry)
         train_s += time.perf_counter() - t_epoch
-        metrics = evaluate(carry.agent, jax.random.fold_in(jax.random.PRNGKey(10_000), epoch))
+        metrics = evaluate(carry.agent, None, jax.random.fold_in(jax.random.PRNGKey(10_000), epoch))
         curve.append({"env_steps": epoch * steps, "wall_s": compile_s + train_s,
                       "train_s": train_s, "eval_success": float(metrics["eval_success"])})  # fmt: skip
     updates = cfg.cycles * cfg.updates_per_cycle
@@ -260,6 +263,7 @@ def main() -> None:
     )
     parser.add_argument("--plot", default="benchmarks/peer_sb3.png")
     args = parser.parse_args()
+    compile_cache.enable()
     results, summary = {}, None
     for task in args.tasks:
         episode = gymnasium.spec(gym_id(task)).max_episode_steps

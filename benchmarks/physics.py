@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
+from mjx_skills import compile_cache
 from mjx_skills.envs import make
 
 
@@ -73,6 +74,7 @@ def main() -> None:
     parser.add_argument("--mjx-steps", type=int, default=5)
     parser.add_argument("--skip-mjx", action="store_true")
     args = parser.parse_args()
+    compile_cache.enable()
     cores = os.cpu_count()
     native_env = make(args.task, physics="native")
     mjx_env = None if args.skip_mjx else make(args.task, physics="mjx")

@@ -20,6 +20,7 @@ import time
 
 import jax
 
+from mjx_skills import compile_cache
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
 from mjx_skills.train import build
 
@@ -27,15 +28,15 @@ from mjx_skills.train import build
 def measure(task: str, envs: int, epochs: int, physics: str) -> dict:
     cfg = TrainConfig(task=task, envs=envs, cycles=1, updates_per_cycle=40, eval_episodes=envs,
                       replay_capacity=200_000, progress=False)  # fmt: skip
-    env, epoch_fn, carry = build(cfg, EnvConfig(physics=physics), DDPGConfig())
+    env, _, epoch_fn, carry = build("ddpg_her", cfg, EnvConfig(physics=physics))
     t0 = time.perf_counter()
-    epoch_fn = epoch_fn.lower(carry).compile()
+    epoch_fn = epoch_fn.lower(carry, None).compile()
     compile_s = time.perf_counter() - t0
-    carry, _ = epoch_fn(carry)  # warm-up
+    carry, _ = epoch_fn(carry, None)  # warm-up
     jax.block_until_ready(carry)
     t0 = time.perf_counter()
     for _ in range(epochs):
-        carry, metrics = epoch_fn(carry)
+        carry, metrics = epoch_fn(carry, None)
     jax.block_until_ready(metrics)
     wall = time.perf_counter() - t0
     steps = epochs * (cfg.envs * cfg.cycles + cfg.eval_episodes) * env.episode_length
@@ -48,9 +49,9 @@ def measure(task: str, envs: int, epochs: int, physics: str) -> dict:
 
 
 def pure_updates(layer_norm: bool, obs_dim: int = 25, n: int = 1000) -> dict:
-    """Gradient steps per second alone, as the trainer runs them (a scan of
-    `update_normalized` over batches sampled beforehand), with XLA's FLOP count per step and
-    the GFLOP/s that makes. Batch 128, 3 x 64 nets."""
+    """Gradient steps per second alone, as the trainer runs them (`ddpg.update` on n batches
+    sampled beforehand), with XLA's FLOP count per step and the GFLOP/s that makes. Batch
+    128, 3 x 64 nets."""
     import jax.numpy as jnp
 
     from mjx_skills import ddpg
@@ -62,9 +63,9 @@ def pure_updates(layer_norm: bool, obs_dim: int = 25, n: int = 1000) -> dict:
     batches = {"obs": jax.random.normal(key, (n, b, obs_dim)), "next_obs": jax.random.normal(key, (n, b, obs_dim)),
                "goal": jax.random.normal(key, (n, b, 3)), "action": jax.random.uniform(key, (n, b, 4)),
                "reward": -jnp.ones((n, b))}  # fmt: skip
-    step = lambda a, nb: (ddpg.update_normalized(a, nb, cfg)[0], None)
-    run = jax.jit(lambda a, bs: jax.lax.scan(step, a, bs)[0]).lower(agent, batches).compile()
-    one = jax.jit(step).lower(agent, jax.tree.map(lambda x: x[0], batches)).compile()
+    update = jax.jit(lambda a, bs: ddpg.update(a, bs, cfg)[0])
+    run = update.lower(agent, batches).compile()
+    one = update.lower(agent, jax.tree.map(lambda x: x[:1], batches)).compile()
     flops = one.cost_analysis()["flops"]
     rate = _best_rate(lambda: run(agent, batches), n)
     return {"updates_per_s": round(rate, 1), "mflop_per_update": round(flops / 1e6, 2),
@@ -101,6 +102,7 @@ def main() -> None:
     parser.add_argument("--epochs", type=int, default=2)
     parser.add_argument("--physics", default="auto")
     args = parser.parse_args()
+    compile_cache.enable()
     peak = round(matmul_gflops(), 1)
     updates = {}
     for layer_norm in (True, False):

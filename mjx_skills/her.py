@@ -1,6 +1,6 @@
 """Hindsight experience replay: sample transitions and relabel their goals.
 
-The buffer's episodes must hold `obs` (T + 1, obs_dim), `ag` (T + 1, goal_dim),
+The buffer holds `rollout.Episode`s: `obs` (T + 1, obs_dim), `ag` (T + 1, goal_dim),
 `g` (T, goal_dim) and `actions` (T, act_dim).
 """
 
@@ -52,18 +52,18 @@ def sample_batch(
     k_idx, k_goal, k_mask = jax.random.split(key, 3)
     ep, t = replay.sample_indices(replay_state, k_idx, batch_size)
     d = replay_state.data
-    ag = d["ag"][ep, t]
-    next_ag = d["ag"][ep, t + 1]
-    goal = d["g"][ep, t]
+    ag = d.ag[ep, t]
+    next_ag = d.ag[ep, t + 1]
+    goal = d.g[ep, t]
     if strategy != "none":
         f = _goal_step(k_goal, t, replay_state.T, strategy)
         relabel = jax.random.uniform(k_mask, (batch_size,)) < relabel_prob
-        goal = jnp.where(relabel[:, None], d["ag"][ep, f], goal)
+        goal = jnp.where(relabel[:, None], d.ag[ep, f], goal)
     return {
-        "obs": d["obs"][ep, t],
-        "next_obs": d["obs"][ep, t + 1],
+        "obs": d.obs[ep, t],
+        "next_obs": d.obs[ep, t + 1],
         "goal": goal,
-        "action": d["actions"][ep, t],
+        "action": d.actions[ep, t],
         "reward": compute_reward(next_ag, goal),
         "ag": ag,
         "next_ag": next_ag,

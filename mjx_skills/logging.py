@@ -30,22 +30,28 @@ class MetricsWriter:
             self._tb = None
 
     def write(self, epoch: int, metrics: dict[str, np.ndarray], **common) -> None:
-        """metrics: name -> (n_seeds,) array; one JSON line per seed."""
+        """metrics: name -> (n_seeds,) array; one JSON line per seed. Integer metrics (the
+        device's counters: env_steps, episodes, skill_calls) are written as integers."""
         n_seeds = len(next(iter(metrics.values())))
         for seed in range(n_seeds):
             row = {"epoch": epoch, "seed": seed, **common}
-            row.update({k: float(v[seed]) for k, v in sorted(metrics.items())})
+            row.update({k: _scalar(v[seed]) for k, v in sorted(metrics.items())})
             self._file.write(json.dumps(row) + "\n")
         self._file.flush()
         if self._tb is not None:
+            x = int(np.max(metrics["env_steps"])) if "env_steps" in metrics else epoch
             for name, value in metrics.items():
-                self._tb.add_scalar(name, float(np.mean(value)), common.get("env_steps", epoch))
+                self._tb.add_scalar(name, float(np.mean(value)), x)
             self._tb.flush()
 
     def close(self) -> None:
         self._file.close()
         if self._tb is not None:
             self._tb.close()
+
+
+def _scalar(x: np.ndarray) -> int | float:
+    return int(x) if np.issubdtype(np.asarray(x).dtype, np.integer) else float(x)
 
 
 def progress_bar(total: int, done: int, enabled: bool, desc: str):

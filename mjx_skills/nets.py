@@ -1,4 +1,5 @@
-"""Flax networks: a generic MLP, the DDPG actor and critic.
+"""Flax networks: a generic MLP, the DDPG actor and critic, the skills' coarse dynamics
+model and success classifier.
 
 Every module maps over arbitrary leading axes (Dense and LayerNorm act on the last one), so
 the same parameters serve single examples, batches and vmapped envs.
@@ -50,4 +51,31 @@ class Critic(nn.Module):
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array, action: jax.Array) -> jax.Array:
         x = jnp.concatenate([obs, goal, action], axis=-1)
+        return MLP(self.hidden, self.layer_norm, 1)(x)[..., 0]
+
+
+class CoarseDynamics(nn.Module):
+    """Terminal state of a skill from its start: (..., obs_dim), (..., goal_dim) -> (..., obs_dim)
+    change of the (normalised) observation over the skill's run (thesis 3.3)."""
+
+    obs_dim: int
+    hidden: tuple[int, ...] = (256, 256, 256)
+    layer_norm: bool = True
+
+    @nn.compact
+    def __call__(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        x = jnp.concatenate([obs, goal], axis=-1)
+        return MLP(self.hidden, self.layer_norm, self.obs_dim)(x)
+
+
+class SuccessClassifier(nn.Module):
+    """Logit of the skill reaching its goal from this start: (..., obs_dim), (..., goal_dim)
+    -> (...); sigmoid of it is the success probability (thesis 3.3)."""
+
+    hidden: tuple[int, ...] = (50, 10)
+    layer_norm: bool = True
+
+    @nn.compact
+    def __call__(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        x = jnp.concatenate([obs, goal], axis=-1)
         return MLP(self.hidden, self.layer_norm, 1)(x)[..., 0]

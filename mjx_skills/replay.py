@@ -1,8 +1,9 @@
 """Episode-aligned ring replay buffer as pure functions over a `ReplayState` pytree.
 
-An episode of length T is a dict of arrays whose leading axis is T (per-step fields:
-`g`, `actions`) or T + 1 (per-state fields: `obs`, `ag`). Whole episodes are stored per
-slot, which lets HER look up later achieved goals of the same episode by index.
+An episode of length T is a pytree (`rollout.Episode`, a dict, or a method's own record)
+whose leaves have leading axis T (per-step fields: `g`, `actions`) or T + 1 (per-state
+fields: `obs`, `ag`). Whole episodes are stored per slot, which lets HER look up later
+achieved goals of the same episode by index.
 
 Slots fill in order 0, 1, ... from an empty buffer, so while it is not full the filled
 slots are exactly [0, size); `sample_indices` relies on that.
@@ -20,8 +21,8 @@ from flax import struct
 
 @struct.dataclass
 class ReplayState:
-    data: dict[str, jax.Array]
-    """field -> (n_slots, T or T + 1, ...) stored episodes, each field in its own dtype."""
+    data: Any
+    """The episode pytree with leaves (n_slots, T or T + 1, ...), each in its own dtype."""
     insert: jax.Array
     """() int32 slot the next episode is written to."""
     size: jax.Array
@@ -36,8 +37,13 @@ def _shape(x: Any) -> tuple[int, ...]:
     return tuple(x.shape) if hasattr(x, "shape") else np.shape(x)
 
 
-def _infer_T(example_episode: dict[str, Any]) -> int:
-    lengths = {_shape(x)[0] for x in example_episode.values()}
+def _fields(tree: Any) -> list[tuple[str, Any]]:
+    """(path name, leaf) of every leaf, for messages."""
+    return [(jax.tree_util.keystr(p), x) for p, x in jax.tree_util.tree_leaves_with_path(tree)]
+
+
+def _infer_T(example_episode: Any) -> int:
+    lengths = {_shape(x)[0] for x in jax.tree.leaves(example_episode)}
     if len(lengths) == 1:
         return lengths.pop()
     if len(lengths) == 2 and max(lengths) == min(lengths) + 1:
@@ -50,50 +56,48 @@ def _dtype(x: Any) -> jnp.dtype:
     return jax.dtypes.canonicalize_dtype(x.dtype if hasattr(x, "dtype") else jnp.result_type(x))
 
 
-def init(
-    capacity_transitions: int, example_episode: dict[str, Any], T: int | None = None
-) -> ReplayState:
+def init(capacity_transitions: int, example_episode: Any, T: int | None = None) -> ReplayState:
     """Empty buffer of max(1, capacity_transitions // T) episode slots.
 
     `example_episode` gives each field's shape and dtype (arrays or jax.ShapeDtypeStruct,
     no batch axis). T is inferred from the leading axes (the shorter of T and T + 1); pass
     it explicitly when every field has the same leading axis T + 1.
     """
-    if not example_episode:
+    if not jax.tree.leaves(example_episode):
         raise ValueError("example_episode has no fields")
     T = _infer_T(example_episode) if T is None else int(T)
     if T < 1:
         raise ValueError(f"episode length T must be >= 1, got {T}")
-    for k, x in example_episode.items():
+    for k, x in _fields(example_episode):
         if _shape(x)[0] not in (T, T + 1):
             raise ValueError(f"field '{k}' has leading axis {_shape(x)[0]}, not {T} or {T + 1}")
     n_slots = max(1, capacity_transitions // T)
-    data = {k: jnp.zeros((n_slots, *_shape(x)), _dtype(x)) for k, x in example_episode.items()}
+    data = jax.tree.map(lambda x: jnp.zeros((n_slots, *_shape(x)), _dtype(x)), example_episode)
     zero = jnp.zeros((), jnp.int32)
     return ReplayState(data=data, insert=zero, size=zero, T=T, n_slots=n_slots)
 
 
-def add(state: ReplayState, episodes: dict[str, jax.Array]) -> ReplayState:
-    """Write B episodes (fields (B, T or T + 1, ...)) at `insert`, wrapping around.
+def add(state: ReplayState, episodes: Any) -> ReplayState:
+    """Write B episodes (leaves (B, T or T + 1, ...)) at `insert`, wrapping around.
 
     When B exceeds the number of slots only the last n_slots episodes survive, exactly as if
     they had been added one by one.
     """
-    if set(episodes) != set(state.data):
-        raise ValueError(f"episode fields {sorted(episodes)} != buffer's {sorted(state.data)}")
+    if jax.tree.structure(episodes) != jax.tree.structure(state.data):
+        names = lambda t: sorted(k for k, _ in _fields(t))
+        raise ValueError(f"episode fields {names(episodes)} != buffer's {names(state.data)}")
     n = state.n_slots
     B = jax.tree.leaves(episodes)[0].shape[0]
-    for k, buf in state.data.items():
-        if episodes[k].shape != (B, *buf.shape[1:]):
-            raise ValueError(f"field '{k}': got {episodes[k].shape}, want {(B, *buf.shape[1:])}")
+    for (k, new), buf in zip(_fields(episodes), jax.tree.leaves(state.data), strict=True):
+        if new.shape != (B, *buf.shape[1:]):
+            raise ValueError(f"field {k}: got {new.shape}, want {(B, *buf.shape[1:])}")
     # Scatters with duplicate indices have no defined winner: drop what would be overwritten.
     keep = min(B, n)
     start = state.insert + (B - keep)
     idx = (start + jnp.arange(keep, dtype=jnp.int32)) % n
-    data = {
-        k: buf.at[idx].set(episodes[k][B - keep :].astype(buf.dtype))
-        for k, buf in state.data.items()
-    }
+    data = jax.tree.map(
+        lambda buf, new: buf.at[idx].set(new[B - keep :].astype(buf.dtype)), state.data, episodes
+    )
     return ReplayState(
         data=data,
         insert=((state.insert + B) % n).astype(jnp.int32),

@@ -12,31 +12,48 @@ import json
 import math
 import sys
 import time
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated
+from typing import Any
 
 import jax
 import numpy as np
-import tyro
 
+from mjx_skills import __version__, methods
 from mjx_skills.checkpoint import Checkpoints
-from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
+from mjx_skills.config import EnvConfig, TrainConfig, from_dict
+from mjx_skills.envs.registry import check_name
 from mjx_skills.logging import MetricsWriter, progress_bar
 from mjx_skills.train import build
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
-    train: Annotated[TrainConfig, tyro.conf.OmitArgPrefixes]
+class RunArgs:
+    """Everything that defines a run: what config.json holds."""
+
+    train: TrainConfig = TrainConfig()
+    method: str = "ddpg_her"
     env: EnvConfig = EnvConfig()
-    ddpg: DDPGConfig = DDPGConfig()
+    options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    """The method's option groups by name (e.g. {"ddpg": DDPGConfig(...)}); defaults are
+    filled in for missing groups."""
     resume: str | None = None
     """Continue the run in this directory from its last checkpoint (its config.json wins)."""
 
+    def full_options(self) -> dict[str, Any]:
+        spec = methods.get(self.method)
+        unknown = sorted(set(self.options) - set(spec.options))
+        if unknown:
+            raise ValueError(
+                f"method {self.method!r} has no option group(s) {unknown}; "
+                f"valid: {sorted(spec.options)}"
+            )
+        return {**spec.options, **self.options}
 
-def new_run_dir(train: TrainConfig) -> Path:
+
+def new_run_dir(args: RunArgs) -> Path:
     """OUT/<task>/<method>/<timestamp>[-N]: a fresh directory, never an existing one."""
-    base = Path(train.out) / train.task / train.method / time.strftime("%Y%m%d-%H%M%S")
+    base = Path(args.train.out) / args.train.task / args.method / time.strftime("%Y%m%d-%H%M%S")
     run_dir, n = base, 1
     while True:
         try:
@@ -47,19 +64,28 @@ def new_run_dir(train: TrainConfig) -> Path:
             run_dir = base.with_name(f"{base.name}-{n}")
 
 
-def save_config(run_dir: Path, args: Args) -> None:
-    (run_dir / "config.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
+def save_config(run_dir: Path, args: RunArgs) -> None:
+    groups = {name: dataclasses.asdict(opt) for name, opt in args.full_options().items()}
+    raw = {"method": args.method, "version": __version__,
+           "train": dataclasses.asdict(args.train), "env": dataclasses.asdict(args.env),
+           "options": groups}  # fmt: skip
+    (run_dir / "config.json").write_text(json.dumps(raw, indent=2))
 
 
-def load_config(run_dir: Path) -> Args:
+def load_config(run_dir: Path) -> RunArgs:
     path = run_dir / "config.json"
     if not path.exists():
         raise FileNotFoundError(f"{run_dir} has no config.json: not a run directory")
     raw = json.loads(path.read_text())
-    train = TrainConfig(**raw["train"])
-    env = EnvConfig(**raw["env"])
-    ddpg = DDPGConfig(**{**raw["ddpg"], "hidden": tuple(raw["ddpg"]["hidden"])})
-    return Args(train=train, env=env, ddpg=ddpg, resume=str(run_dir))
+    if "options" not in raw:  # written before the method registry (version 0.1.0 runs)
+        raise ValueError(
+            f"{path} was written by an earlier version (no method options); start a new run"
+        )
+    spec = methods.get(raw["method"])
+    options = {name: from_dict(type(spec.options[name]), group)
+               for name, group in raw["options"].items()}  # fmt: skip
+    return RunArgs(train=from_dict(TrainConfig, raw["train"]), method=raw["method"],
+                   env=from_dict(EnvConfig, raw["env"]), options=options, resume=str(run_dir))  # fmt: skip
 
 
 def check_finite(metrics: dict[str, np.ndarray]) -> None:
@@ -68,37 +94,45 @@ def check_finite(metrics: dict[str, np.ndarray]) -> None:
         raise FloatingPointError(f"non-finite {', '.join(bad)}; the last good checkpoint is kept")
 
 
-def train_run(args: Args, stop_after: int | None = None) -> Path:
+def train_run(args: RunArgs, stop_after: int | None = None) -> Path:
     """Train (or resume) a run; returns its directory. `stop_after` ends the run after that
     epoch as Ctrl-C would (checkpoint saved), for tests and for training in pieces."""
+    return train_and_keep(args, stop_after)[0]
+
+
+def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, Any]:
+    """`train_run`, also returning the final carry (leading seed axis). Resuming a finished
+    run trains nothing and returns its last checkpoint's carry."""
     if args.resume:
         run_dir = Path(args.resume)
         args = load_config(run_dir)
     else:
-        run_dir = new_run_dir(args.train)
+        check_name(args.train.task)
+        args.full_options()  # unknown methods and option groups fail before any file is written
+        run_dir = new_run_dir(args)
         save_config(run_dir, args)
     cfg = args.train
-    env, epoch_fn, carry = build(cfg, args.env, args.ddpg)
+    aux = None  # read-only method inputs (the skill library) enter here, never donated
+    env, _, epoch_fn, carry = build(args.method, cfg, args.env, args.full_options(), aux)
     checkpoints = Checkpoints(run_dir / "checkpoints")
     start = 0
     if args.resume and checkpoints.latest_epoch() is not None:
         start, carry = checkpoints.restore(carry)
     writer = MetricsWriter(run_dir, resume_from_epoch=start)
     steps_per_epoch = cfg.envs * cfg.cycles * env.episode_length
-    bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{cfg.method}")
+    bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{args.method}")
     logged, t0 = start, time.time()
     try:
         for epoch in range(start + 1, cfg.epochs + 1):
             t_epoch = time.time()
-            carry, metrics = epoch_fn(carry)
+            carry, metrics = epoch_fn(carry, aux)
             metrics = jax.tree.map(np.asarray, metrics)
             check_finite(metrics)
-            writer.write(epoch, metrics, episodes=epoch * cfg.envs * cfg.cycles,
-                         env_steps=epoch * steps_per_epoch, wall_s=time.time() - t0)  # fmt: skip
+            writer.write(epoch, metrics, wall_s=time.time() - t0)
             logged = epoch
             sps = steps_per_epoch * cfg.seeds / max(time.time() - t_epoch, 1e-9)
             bar.set_postfix(eval_success=f"{metrics['eval_success'].mean():.2f}",
-                            env_steps=epoch * steps_per_epoch, steps_per_s=f"{sps:.0f}")  # fmt: skip
+                            env_steps=int(metrics["env_steps"][0]), steps_per_s=f"{sps:.0f}")  # fmt: skip
             bar.update(1)
             if epoch % cfg.checkpoint_every == 0 or epoch == cfg.epochs:
                 checkpoints.save(epoch, carry)
@@ -121,7 +155,7 @@ def train_run(args: Args, stop_after: int | None = None) -> Path:
         bar.close()
         writer.close()
         checkpoints.close()
-    return run_dir
+    return run_dir, carry
 
 
 def _carry_epoch(carry) -> int | None:
@@ -141,26 +175,3 @@ def summary(run_dir: Path) -> str:
     mean = sum(final) / len(final)
     spread = math.sqrt(sum((f - mean) ** 2 for f in final) / len(final))
     return f"{run_dir}: epoch {last}, eval success {mean:.2f} +- {spread:.2f} over {len(final)} seed(s)"
-
-
-ALIASES = {"--physics": "--env.physics"}
-"""Short flags for the most used nested options."""
-
-
-def _expand_alias(arg: str) -> str:
-    flag, sep, value = arg.partition("=")
-    return ALIASES.get(flag, flag) + sep + value
-
-
-def main(argv: list[str] | None = None) -> None:
-    argv = [_expand_alias(arg) for arg in (sys.argv[1:] if argv is None else argv)]
-    try:
-        args = tyro.cli(Args, args=argv, description=__doc__)
-    except (ValueError, NotImplementedError) as err:
-        raise SystemExit(f"error: {err}") from None
-    try:
-        run_dir = train_run(args)
-    except (FloatingPointError, FileNotFoundError, ValueError) as err:
-        # Diverged losses, a bad --resume directory or a checkpoint of another run.
-        raise SystemExit(f"error: {err}") from None
-    print(summary(run_dir))

@@ -1,11 +1,12 @@
-"""DDPG+HER as one jitted XLA program per epoch, and the CLI that drives it.
+"""One jitted XLA program per epoch, the same for every method.
 
-One epoch = `cycles` x (collect `envs` episodes -> store -> `updates_per_cycle` gradient
-steps of sample + relabel + update), then `eval_episodes` episodes with the frozen
-deterministic policy. Everything inside `train_epoch` runs on device; seeds are a vmap
-axis over the whole carry, so N seeds are one program.
+One epoch = `cycles` x (collect `envs` episodes with the method's exploring behaviour ->
+store -> the method's update), then `eval_episodes` episodes with its deterministic
+behaviour. Everything inside `train_epoch` runs on device, including the counters of env
+steps, episodes and skill calls that every method's curves share as x-axes. Seeds are a
+vmap axis over the whole carry, so N seeds are one program.
 
-    python -m mjx_skills.train --task transit --epochs 20 --seeds 2
+The command line is in `mjx_skills.cli`; `python -m mjx_skills.train ...` runs it too.
 """
 
 from __future__ import annotations
@@ -16,52 +17,42 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from mjx_skills import ddpg, her, replay
-from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
-from mjx_skills.envs.baxter import BaxterEnv
+from mjx_skills import methods, replay, rollout
+from mjx_skills.config import EnvConfig, TrainConfig
+from mjx_skills.methods import Learner
+
+
+@struct.dataclass
+class Counters:
+    """Training interaction so far, counted on device (evaluation is not counted)."""
+
+    env_steps: jax.Array
+    episodes: jax.Array
+    skill_calls: jax.Array
+    """Skills started by the behaviour (0 for methods without skills)."""
+
+    @classmethod
+    def zeros(cls) -> Counters:
+        zero = jnp.zeros((), jnp.int32)
+        return cls(env_steps=zero, episodes=zero, skill_calls=zero)
 
 
 @struct.dataclass
 class TrainCarry:
-    agent: ddpg.DDPGState
+    agent: Any
     replay: replay.ReplayState
     key: jax.Array
     epoch: jax.Array
+    counters: Counters
 
 
-def run_episodes(env: BaxterEnv, policy, key: jax.Array, n: int):
-    """Roll out n episodes with policy(key, obs (n, obs_dim), goal (n, 3)) -> actions.
+def make_evaluate(learner: Learner, env: Any, train: TrainConfig):
+    """-> evaluate(agent, aux, key) -> {eval_success, eval_distance}: `eval_episodes`
+    episodes with the deterministic behaviour, success read at the last step (as the thesis)."""
 
-    Returns the episodes in replay layout, obs / ag (n, T+1, .), g / actions (n, T, .),
-    and the final env State (batched)."""
-    k_reset, k_steps = jax.random.split(key)
-    state = jax.vmap(env.reset)(jax.random.split(k_reset, n))
-
-    def body(state, k):
-        action = policy(k, state.obs, state.desired_goal)
-        new = jax.vmap(env.step)(state, action)
-        return new, (state.obs, state.achieved_goal, state.desired_goal, action)
-
-    final, (obs, ag, g, actions) = jax.lax.scan(
-        body, state, jax.random.split(k_steps, env.episode_length)
-    )
-    swap = lambda x: jnp.swapaxes(x, 0, 1)  # (T, n, .) -> (n, T, .)
-    episodes = {
-        "obs": jnp.concatenate([swap(obs), final.obs[:, None]], axis=1),
-        "ag": jnp.concatenate([swap(ag), final.achieved_goal[:, None]], axis=1),
-        "g": swap(g),
-        "actions": swap(actions),
-    }
-    return episodes, final
-
-
-def make_evaluate(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
-    """-> evaluate(agent, key) -> {eval_success, eval_distance}: `eval_episodes` episodes with
-    the frozen deterministic policy, success read at the last step (as the thesis)."""
-
-    def evaluate(agent: ddpg.DDPGState, key: jax.Array) -> dict[str, jax.Array]:
-        policy = lambda k, obs, goal: ddpg.act(agent, obs, goal, agent_cfg)
-        _, final = run_episodes(env, policy, key, train.eval_episodes)
+    def evaluate(agent: Any, aux: Any, key: jax.Array) -> dict[str, jax.Array]:
+        behaviour = learner.evaluate(agent, aux)
+        _, final, _ = rollout.run_episodes(env, behaviour, key, train.eval_episodes)
         return {
             "eval_success": final.metrics["success"].mean(),
             "eval_distance": final.metrics["distance"].mean(),
@@ -70,83 +61,80 @@ def make_evaluate(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
     return evaluate
 
 
-def make_train_cycles(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
-    """-> train_cycles(carry) -> (carry, metrics): an epoch's `cycles` collect-store-update
+def make_train_cycles(learner: Learner, env: Any, train: TrainConfig):
+    """-> train_cycles(carry, aux) -> (carry, metrics): an epoch's `cycles` collect-store-update
     cycles without evaluation, pure and jittable."""
 
-    def explore_policy(agent):
-        return lambda k, obs, goal: ddpg.explore(agent, k, obs, goal, agent_cfg)
-
-    def train_agent(agent, buffer, key):
-        """updates_per_cycle gradient steps. The buffer and normaliser are fixed while they
-        run, so all their batches are sampled, relabelled and normalised up front in a few
-        large gathers, and the scan body holds only the networks' update (this made a
-        cycle at one update per env step 1.44x faster on 2 CPU cores)."""
-        n, b = train.updates_per_cycle, agent_cfg.batch_size
-        batch = her.sample_batch(
-            buffer, key, n * b, env.compute_reward, agent_cfg.her_strategy, agent_cfg.relabel_prob
-        )
-        batches = jax.tree.map(
-            lambda x: x.reshape(n, b, *x.shape[1:]), ddpg.normalize_batch(agent, batch, agent_cfg)
-        )
-        return jax.lax.scan(
-            lambda a, nbatch: ddpg.update_normalized(a, nbatch, agent_cfg), agent, batches
-        )
-
-    def cycle(carry: TrainCarry, _):
+    def cycle(aux, carry: TrainCarry, _):
         key, k_roll, k_upd = jax.random.split(carry.key, 3)
-        episodes, final = run_episodes(env, explore_policy(carry.agent), k_roll, train.envs)
-        agent = ddpg.update_normalizers(
-            carry.agent,
-            episodes["obs"].reshape(-1, env.obs_dim),
-            jnp.concatenate([episodes["g"], episodes["ag"]], axis=1).reshape(-1, env.goal_dim),
+        behaviour = learner.explore(carry.agent, aux, carry.epoch)
+        episodes, final, records = rollout.run_episodes(env, behaviour, k_roll, train.envs)
+        fresh = learner.store(episodes, records)
+        buffer = replay.add(carry.replay, fresh)
+        agent, losses = learner.update(carry.agent, buffer, fresh, k_upd)
+        skill_calls = records.pop("skill_calls", jnp.zeros((), jnp.int32))
+        c = carry.counters
+        counters = c.replace(
+            env_steps=c.env_steps + train.envs * env.episode_length,
+            episodes=c.episodes + train.envs,
+            skill_calls=c.skill_calls + jnp.sum(skill_calls).astype(jnp.int32),
         )
-        buffer = replay.add(carry.replay, episodes)
-        agent, losses = train_agent(agent, buffer, k_upd)
-        carry = carry.replace(agent=agent, replay=buffer, key=key)
+        carry = carry.replace(agent=agent, replay=buffer, key=key, counters=counters)
         stats = {
             "train_success": final.metrics["success"].mean(),
             "physics_resets": final.metrics["physics_resets"].sum(),
             **jax.tree.map(jnp.mean, losses),
+            **{f"explore_{k}": jnp.mean(v.astype(jnp.float32)) for k, v in records.items()},
         }
         return carry, stats
 
-    def train_cycles(carry: TrainCarry):
-        carry, stats = jax.lax.scan(cycle, carry, None, length=train.cycles)
+    def train_cycles(carry: TrainCarry, aux: Any = None):
+        carry, stats = jax.lax.scan(lambda c, x: cycle(aux, c, x), carry, None, length=train.cycles)
         return carry, jax.tree.map(jnp.mean, stats)
 
     return train_cycles
 
 
-def make_train_epoch(env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig):
-    """-> train_epoch(carry) -> (carry, metrics): the cycles, then evaluation; pure and
-    jittable."""
-    train_cycles = make_train_cycles(env, train, agent_cfg)
-    evaluate = make_evaluate(env, train, agent_cfg)
+def make_train_epoch(learner: Learner, env: Any, train: TrainConfig, eval_env: Any = None):
+    """-> train_epoch(carry, aux) -> (carry, metrics): the cycles, then evaluation (on
+    `eval_env`, default `env`: the true start distribution where training uses another);
+    pure and jittable. Metrics hold the counters after the epoch (int32)."""
+    train_cycles = make_train_cycles(learner, env, train)
+    evaluate = make_evaluate(learner, env if eval_env is None else eval_env, train)
 
-    def train_epoch(carry: TrainCarry):
-        carry, metrics = train_cycles(carry)
+    def train_epoch(carry: TrainCarry, aux: Any = None):
+        carry, metrics = train_cycles(carry, aux)
         key, k_eval = jax.random.split(carry.key)
-        metrics = {**metrics, **evaluate(carry.agent, k_eval)}
+        c = carry.counters
+        metrics = {
+            **metrics,
+            **evaluate(carry.agent, aux, k_eval),
+            "env_steps": c.env_steps,
+            "episodes": c.episodes,
+            "skill_calls": c.skill_calls,
+        }
         return carry.replace(key=key, epoch=carry.epoch + 1), metrics
 
     return train_epoch
 
 
 def init_carry(
-    env: BaxterEnv, train: TrainConfig, agent_cfg: DDPGConfig, key: jax.Array
+    learner: Learner, env: Any, train: TrainConfig, key: jax.Array, aux: Any = None
 ) -> TrainCarry:
+    """Fresh agent and an empty replay whose layout is what `store` makes of an episode."""
     k_agent, k_run = jax.random.split(key)
-    agent = ddpg.init(k_agent, env.obs_dim, env.goal_dim, env.action_dim, agent_cfg)
-    T = env.episode_length
-    example = {
-        "obs": jnp.zeros((T + 1, env.obs_dim)),
-        "ag": jnp.zeros((T + 1, env.goal_dim)),
-        "g": jnp.zeros((T, env.goal_dim)),
-        "actions": jnp.zeros((T, env.action_dim)),
-    }
-    buffer = replay.init(train.replay_capacity, example)
-    return TrainCarry(agent=agent, replay=buffer, key=k_run, epoch=jnp.zeros((), jnp.int32))
+    agent = learner.init(k_agent)
+
+    def stored_one(k):
+        behaviour = learner.explore(agent, aux, jnp.zeros((), jnp.int32))
+        episodes, _, records = rollout.run_episodes(env, behaviour, k, 1)
+        return learner.store(episodes, records)
+
+    layout = jax.eval_shape(stored_one, jax.random.PRNGKey(0))
+    example = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype), layout)
+    buffer = replay.init(train.replay_capacity, example, T=env.episode_length)
+    return TrainCarry(agent=agent, replay=buffer, key=k_run, epoch=jnp.zeros((), jnp.int32),
+                      counters=Counters.zeros())  # fmt: skip
 
 
 def seed_keys(train: TrainConfig) -> jax.Array:
@@ -154,22 +142,28 @@ def seed_keys(train: TrainConfig) -> jax.Array:
 
 
 def build(
-    train: TrainConfig, env_cfg: EnvConfig, agent_cfg: DDPGConfig
-) -> tuple[BaxterEnv, Any, Any]:
-    """-> (env, jitted vmapped train_epoch, initial carry with a leading seed axis)."""
+    method: str,
+    train: TrainConfig,
+    env_cfg: EnvConfig,
+    options: dict[str, Any] | None = None,
+    aux: Any = None,
+) -> tuple[Any, Learner, Any, TrainCarry]:
+    """-> (env, learner, jitted train_epoch(carry, aux) vmapped over seeds, initial carry with
+    a leading seed axis). `options`: the method's option groups (defaults where missing)."""
     from mjx_skills.envs import make
 
+    spec = methods.get(method)
     env = make(train.task, env_cfg)
-    epoch_fn = jax.jit(jax.vmap(make_train_epoch(env, train, agent_cfg)), donate_argnums=0)
-    carry = jax.jit(jax.vmap(lambda k: init_carry(env, train, agent_cfg, k)))(seed_keys(train))
-    return env, epoch_fn, carry
-
-
-def main(argv: list[str] | None = None) -> None:
-    from mjx_skills.runner import main as run_main
-
-    run_main(argv)
+    # Training-only start distributions (held starts) never reach the evaluation episodes.
+    eval_env = make(train.task, env_cfg, held_start_prob=0.0) if env_cfg.held_start_prob else env
+    learner = spec.make_learner(env, train, **{**spec.options, **(options or {})})
+    epoch = jax.vmap(make_train_epoch(learner, env, train, eval_env), in_axes=(0, None))
+    epoch_fn = jax.jit(epoch, donate_argnums=0)
+    init = jax.vmap(lambda k: init_carry(learner, env, train, k, aux))
+    return env, learner, epoch_fn, jax.jit(init)(seed_keys(train))
 
 
 if __name__ == "__main__":
+    from mjx_skills.cli import main
+
     main()

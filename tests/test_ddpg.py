@@ -33,9 +33,28 @@ def make_batch(key: jax.Array) -> dict[str, jax.Array]:
 def setup():
     state = ddpg.init(jax.random.key(0), OBS, GOAL, ACT, CONFIG)
     batch = make_batch(jax.random.key(1))
-    state = ddpg.update_normalizers(state, batch["obs"], batch["goal"])
-    update = jax.jit(functools.partial(ddpg.update, config=CONFIG))
-    return state, batch, update
+    state = ddpg.observe(state, batch["obs"], batch["goal"])
+    return state, batch, update_one
+
+
+@jax.jit
+def update_one(state, batch):
+    """One gradient step: `ddpg.update` on a stack of one batch."""
+    state, metrics = ddpg.update(state, jax.tree.map(lambda x: x[None], batch), CONFIG)
+    return state, jax.tree.map(lambda m: m[0], metrics)
+
+
+def test_n_steps_in_one_call_equal_n_single_steps(setup):
+    state, batch, update = setup
+    batches = jax.tree.map(lambda *xs: jnp.stack(xs), batch, make_batch(jax.random.key(9)))
+    together, metrics = jax.jit(functools.partial(ddpg.update, config=CONFIG))(state, batches)
+    assert metrics["critic_loss"].shape == (2,)
+    one_by_one = state
+    for i in range(2):
+        one_by_one, m = update(one_by_one, jax.tree.map(lambda x, i=i: x[i], batches))
+        np.testing.assert_allclose(m["critic_loss"], metrics["critic_loss"][i], rtol=1e-4)
+    chex.assert_trees_all_close(together, one_by_one, rtol=1e-4, atol=1e-5)
+    assert int(together.steps) == 2
 
 
 def test_init_targets_equal_online(setup):
@@ -149,12 +168,12 @@ def test_vmap_over_seeds_inside_scan(setup):
     @jax.vmap
     def run(key):
         state = ddpg.init(key, OBS, GOAL, ACT, CONFIG)
-        state = ddpg.update_normalizers(state, batch["obs"], batch["goal"])
+        state = ddpg.observe(state, batch["obs"], batch["goal"])
 
         def step(s, k):
-            s, m = ddpg.update(s, batch, CONFIG)
+            s, m = ddpg.update(s, jax.tree.map(lambda x: x[None], batch), CONFIG)
             return s, (
-                m["critic_loss"],
+                m["critic_loss"][0],
                 ddpg.explore(s, k, batch["obs"][0], batch["goal"][0], CONFIG),
             )
 

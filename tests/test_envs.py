@@ -55,7 +55,7 @@ def test_nan_and_out_of_range_actions_are_sanitised_and_counted(env_factory):
 
 
 def test_unknown_env_lists_valid_names():
-    with pytest.raises(ValueError, match="valid envs: transit, grasp"):
+    with pytest.raises(ValueError, match="valid: transit, grasp"):
         make("pick_and_place")
 
 

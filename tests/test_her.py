@@ -10,24 +10,25 @@ import numpy as np
 import pytest
 
 from mjx_skills import her, replay
+from mjx_skills.rollout import Episode
 
 T = 10
 N_FILLED = 12  # of 30 slots: sampling must stay within the filled ones
 N = 8192
 
 
-def make_episodes(ids: np.ndarray) -> dict[str, np.ndarray]:
+def make_episodes(ids: np.ndarray) -> Episode:
     """ag[t] = (id, t); desired goals (-id, -t) never equal an achieved goal (ids >= 1)."""
     ids = np.asarray(ids, np.float32)
     i1 = np.broadcast_to(ids[:, None], (len(ids), T + 1))
     s1 = np.broadcast_to(np.arange(T + 1, dtype=np.float32), (len(ids), T + 1))
     i, s = i1[:, :T], s1[:, :T]
-    return {
-        "obs": np.stack([i1, s1, -i1], axis=-1),
-        "ag": np.stack([i1, s1], axis=-1),
-        "g": np.stack([-i, -s], axis=-1),
-        "actions": np.stack([i, s], axis=-1),
-    }
+    return Episode(
+        obs=np.stack([i1, s1, -i1], axis=-1),
+        ag=np.stack([i1, s1], axis=-1),
+        g=np.stack([-i, -s], axis=-1),
+        actions=np.stack([i, s], axis=-1),
+    )
 
 
 def compute_reward(achieved: jax.Array, desired: jax.Array) -> jax.Array:

@@ -14,5 +14,15 @@ def test_pinned_jax():
 
 
 def test_package_imports_and_cache_is_on():
+    # conftest.py switches the cache on, as the CLI does; importing the package does not.
     assert mjx_skills.__version__
     assert jax.config.jax_compilation_cache_dir == str(compile_cache.cache_dir())
+
+
+def test_importing_the_package_has_no_side_effects():
+    import subprocess
+    import sys
+
+    code = "import jax, mjx_skills.train; print(jax.config.jax_compilation_cache_dir)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "None"

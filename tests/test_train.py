@@ -10,7 +10,8 @@ import pytest
 from mjx_skills import train as train_mod
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
 from mjx_skills.logging import read_metrics
-from mjx_skills.runner import Args, check_finite, load_config, train_run
+from mjx_skills.methods import make_ddpg_her
+from mjx_skills.runner import RunArgs, check_finite, load_config, train_run
 
 # A tiny budget: every code path of an epoch, compiled in seconds.
 TINY = dict(task="transit", envs=2, cycles=2, updates_per_cycle=5, eval_episodes=2,
@@ -18,7 +19,7 @@ TINY = dict(task="transit", envs=2, cycles=2, updates_per_cycle=5, eval_episodes
 
 
 def tiny_args(tmp_path, **overrides):
-    return Args(train=TrainConfig(**{**TINY, "out": str(tmp_path), **overrides}))
+    return RunArgs(train=TrainConfig(**{**TINY, "out": str(tmp_path), **overrides}))
 
 
 @pytest.fixture(scope="module")
@@ -27,14 +28,15 @@ def tiny_program(env_factory):
     cfg = TrainConfig(**{**TINY, "seeds": 2})
     env = env_factory("transit")
     traces = []
-    epoch = train_mod.make_train_epoch(env, cfg, DDPGConfig())
+    learner = make_ddpg_her(env, cfg, DDPGConfig())
+    epoch = train_mod.make_train_epoch(learner, env, cfg)
 
     def counted(carry):
         traces.append(1)
-        return epoch(carry)
+        return epoch(carry, None)
 
     fn = jax.jit(jax.vmap(counted))
-    init = jax.jit(jax.vmap(lambda k: train_mod.init_carry(env, cfg, DDPGConfig(), k)))
+    init = jax.jit(jax.vmap(lambda k: train_mod.init_carry(learner, env, cfg, k)))
     return fn, init(train_mod.seed_keys(cfg)), traces
 
 
@@ -70,7 +72,7 @@ def test_resume_equals_uninterrupted_run(tmp_path):
     straight = train_run(tiny_args(tmp_path / "a", epochs=4, checkpoint_every=1))
     pieces = train_run(tiny_args(tmp_path / "b", epochs=4, checkpoint_every=3), stop_after=2)
     assert [r["epoch"] for r in read_metrics(pieces)] == [1, 2]
-    resumed = train_run(Args(train=TrainConfig(**TINY), resume=str(pieces)))
+    resumed = train_run(RunArgs(resume=str(pieces)))
     assert resumed == pieces
     assert _rows(straight) == _rows(pieces)
 
@@ -88,7 +90,7 @@ def test_resume_with_other_shapes_fails_and_writes_nothing(tmp_path):
     (run_dir / "config.json").write_text(json.dumps(config))
     before = (run_dir / "metrics.jsonl").read_text()
     with pytest.raises(ValueError, match="does not match"):
-        train_run(Args(train=TrainConfig(**TINY), resume=str(run_dir)))
+        train_run(RunArgs(resume=str(run_dir)))
     assert (run_dir / "metrics.jsonl").read_text() == before
 
 
@@ -98,17 +100,20 @@ def test_corrupt_checkpoint_falls_back_to_the_previous_one(tmp_path):
     for f in newest.rglob("*"):
         if f.is_file() and f.stat().st_size > 0:
             f.write_bytes(b"garbage")
-    train_run(Args(train=TrainConfig(**TINY), resume=str(run_dir)))
+    train_run(RunArgs(resume=str(run_dir)))
     assert [r["epoch"] for r in read_metrics(run_dir)] == [1, 2, 3]
     assert list((run_dir / "checkpoints").glob("3.corrupt-*")), "the bad checkpoint is kept aside"
     assert (run_dir / "checkpoints" / "3").exists()  # epoch 3 trained again and saved
 
 
-def test_bad_input_names_the_field():
+def test_bad_input_names_the_field(tmp_path):
     with pytest.raises(ValueError, match="valid: transit, grasp"):
-        TrainConfig(task="stack")
-    with pytest.raises(ValueError, match="method"):
-        TrainConfig(method="sac")
+        train_run(tiny_args(tmp_path, task="stack"))
+    with pytest.raises(ValueError, match="valid: ddpg_her"):
+        train_run(RunArgs(train=TrainConfig(**TINY, out=str(tmp_path)), method="sac"))
+    with pytest.raises(ValueError, match="no option group"):
+        train_run(RunArgs(train=TrainConfig(**TINY, out=str(tmp_path)), options={"pas": 1}))
+    assert not list(tmp_path.iterdir()), "bad input must not create a run directory"
     with pytest.raises(ValueError, match="envs"):
         TrainConfig(envs=0)
     with pytest.raises(ValueError, match="gamma"):
@@ -127,7 +132,17 @@ def test_config_round_trips(tmp_path):
     run_dir = train_run(tiny_args(tmp_path, epochs=1))
     loaded = load_config(run_dir)
     assert loaded.train == dataclasses.replace(TrainConfig(**TINY), out=str(tmp_path), epochs=1)
-    assert loaded.env == EnvConfig() and loaded.ddpg == DDPGConfig()
+    assert loaded.env == EnvConfig() and loaded.options == {"ddpg": DDPGConfig()}
+    assert loaded.method == "ddpg_her"
+
+
+def test_counters_are_the_x_axes(tmp_path):
+    rows = read_metrics(train_run(tiny_args(tmp_path, epochs=2, seeds=2)))
+    per_epoch = TINY["envs"] * TINY["cycles"]
+    for r in rows:
+        assert r["episodes"] == r["epoch"] * per_epoch
+        assert r["env_steps"] == r["episodes"] * 20  # transit: 20 steps per episode
+        assert r["skill_calls"] == 0 and isinstance(r["env_steps"], int)
 
 
 @pytest.mark.parametrize(
@@ -136,13 +151,27 @@ def test_config_round_trips(tmp_path):
         (["--task", "stack"], "valid: transit, grasp"),
         (["--method", "sac"], "method"),
         (["--method", "pas"], "skill library"),
+        (["pas"], "skill library"),
+        (["sac", "--task", "transit"], "valid: ddpg_her"),
         (["--epochs", "0"], "epochs"),
         (["--resume", "/nonexistent/run"], "not a run directory"),
     ],
 )
 def test_cli_bad_input_is_a_clear_error(argv, message, capsys):
-    from mjx_skills.runner import main
+    from mjx_skills.cli import main
 
     with pytest.raises(SystemExit) as exit_info:
         main([*argv, "--out", "/nonexistent/never-written"])
     assert message in str(exit_info.value) + capsys.readouterr().err
+
+
+def test_cli_forms_parse_to_the_same_run():
+    from mjx_skills.cli import parse
+
+    sub = parse(["ddpg_her", "--task", "transit", "--ddpg.actor-lr", "3e-4", "--physics", "mjx"])
+    old = parse(["--method", "ddpg_her", "--task", "transit", "--ddpg.actor-lr", "3e-4",
+                 "--env.physics", "mjx"])  # fmt: skip
+    default = parse(["--task", "transit", "--ddpg.actor-lr", "3e-4", "--physics=mjx"])
+    assert sub == old == default
+    assert sub.method == "ddpg_her" and sub.options["ddpg"].actor_lr == 3e-4
+    assert sub.env.physics == "mjx" and sub.train.task == "transit"

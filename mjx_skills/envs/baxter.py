@@ -185,20 +185,24 @@ class BaxterEnv:
         qvel = qvel.at[self.object_qvel_adr : self.object_qvel_adr + 6].set(0.0)
         return qpos, qvel
 
-    def place(self, grip: jax.Array, object_pos: jax.Array) -> PhysicsState:
+    def place(self, grip: jax.Array, object_pos: jax.Array, held=None) -> PhysicsState:
         """Physics state with the grip point at `grip` and the object at `object_pos`.
 
         The weld carries the arm from home to `grip` with the object parked out of reach,
         then the object is put in place and, for held starts, the fingers close on it
-        (otherwise one substep makes sensordata describe the placed state).
+        (otherwise one substep makes sensordata describe the placed state). `held`, a traced
+        bool, chooses per reset (the fingers then close or stay open for the same substeps).
         """
         cfg = self.config
         qpos = jnp.zeros(self.model.nq).at[:7].set(self.home_arm_qpos)
         qpos, qvel = self._put_object(qpos, jnp.zeros(self.model.nv), jnp.asarray(PARKED_OBJECT))
         physics = self.backend.init(qpos, qvel)
         open_ctrl = jnp.full((2,), FINGER_OPEN)
-        if self.grasped_start:
-            last = (jnp.full((2,), FINGER_CLOSED_CTRL), cfg.grasp_settle_substeps)
+        closed_ctrl = jnp.full((2,), FINGER_CLOSED_CTRL)
+        if held is not None:
+            last = (jnp.where(held, closed_ctrl, open_ctrl), cfg.grasp_settle_substeps)
+        elif self.grasped_start:
+            last = (closed_ctrl, cfg.grasp_settle_substeps)
         else:
             last = (open_ctrl, 1)
         phases = ((open_ctrl, cfg.settle_substeps), last)
@@ -207,7 +211,14 @@ class BaxterEnv:
 
     def reset(self, key: jax.Array) -> State:
         grip, object_pos, goal = self.sample_start(key)
-        physics = self.place(grip, object_pos)
+        held = None
+        if self.config.held_start_prob > 0 and self.goal_is_object and not self.grasped_start:
+            # Training start with the cube closed in the fingers where it lies (fold_in:
+            # the other starts keep their keys).
+            coin = jax.random.uniform(jax.random.fold_in(key, 7))
+            held = coin < self.config.held_start_prob
+            grip = jnp.where(held, object_pos, grip)
+        physics = self.place(grip, object_pos, held)
         zero = jnp.zeros((), jnp.float32)
         info = {"step": jnp.zeros((), jnp.int32), "start_physics": physics}
         state = State(

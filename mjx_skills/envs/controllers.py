@@ -12,6 +12,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
+from mjx_skills import rollout
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, BaxterEnv
 from mjx_skills.envs.tasks import ContainerWall, PutInContainer, TakeOut
 
@@ -90,14 +91,15 @@ def make_scripted_policy(env: BaxterEnv) -> Callable[[jax.Array, jax.Array], jax
     return policy
 
 
+def scripted_behaviour(env: BaxterEnv) -> rollout.Behaviour:
+    """The scripted controller as a (stateless) behaviour of the shared rollout scan."""
+    policy = jax.vmap(make_scripted_policy(env))
+    return rollout.stateless(lambda key, obs, goal: policy(obs, goal))
+
+
 def rollout_scripted(env: BaxterEnv, key: jax.Array, n_episodes: int):
     """Run the scripted policy for n_episodes in a batch -> final State (batched) and the
-    per-step success (T, n_episodes)."""
-    policy = jax.vmap(make_scripted_policy(env))
-    state = jax.vmap(env.reset)(jax.random.split(key, n_episodes))
-
-    def body(state, _):
-        state = jax.vmap(env.step)(state, policy(state.obs, state.desired_goal))
-        return state, state.metrics["success"]
-
-    return jax.lax.scan(body, state, None, length=env.episode_length)
+    per-step success (T, n_episodes) after each step."""
+    episodes, final, _ = rollout.run_episodes(env, scripted_behaviour(env), key, n_episodes)
+    success = env.is_success(episodes.ag[:, 1:], episodes.g).astype(jnp.float32)
+    return final, success.T

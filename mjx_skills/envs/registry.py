@@ -25,7 +25,7 @@ TASKS = ("pick_move", "put_in_container", "put_on", "take_out", "container_wall"
 
 def check_name(name: str) -> None:
     if name not in ENVS:
-        raise ValueError(f"unknown env {name!r}; valid envs: {', '.join(ENVS)}")
+        raise ValueError(f"unknown task {name!r}; valid: {', '.join(ENVS)}")
 
 
 def make(name: str, config: EnvConfig | None = None, **overrides) -> BaxterEnv:

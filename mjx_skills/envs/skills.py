@@ -1,8 +1,9 @@
 """The three skills of the library (thesis ch. 3): transit, grasp, transfer.
 
 Each skill env also declares what the skill library needs: the box its goal parameters
-map into from [-1, 1] (`goal_from_param`), which observation dimensions the skill uses
-(`state_dims`), and when a running skill stops (`terminated`).
+map into from [-1, 1] (`goal_from_param`), which observation dimensions the skill changes
+(`state_dims`) and memory retrieval compares (`memory_dims`), and when a running skill
+stops (`terminated`).
 """
 
 from __future__ import annotations
@@ -10,9 +11,13 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_skills.envs.baxter import OBS_GRIP, OBS_GRIP_VEL, OBS_OBJECT, BaxterEnv
+from mjx_skills.envs.baxter import OBS_FINGERS, OBS_GRIP, OBS_GRIP_VEL, OBS_OBJECT, BaxterEnv
 
 OBJECT_REGION = ((0.55, -0.45), (0.8, 0.05))
+_DIMS = tuple(range(25))
+MANIPULATION_MEMORY_DIMS = _DIMS[OBS_GRIP] + _DIMS[OBS_OBJECT] + _DIMS[OBS_FINGERS]
+"""Observation dimensions memory retrieval compares for grasp and transfer (with the goal):
+positions only, so metres are not mixed with radians and velocities."""
 
 
 def _lerp(param: jax.Array, low, high) -> jax.Array:
@@ -28,6 +33,7 @@ class Transit(BaxterEnv):
     goal_is_object = False
     param_dim = 3
     state_dims = tuple(range(25))[OBS_GRIP] + tuple(range(25))[OBS_GRIP_VEL]
+    memory_dims = tuple(range(25))[OBS_GRIP]
 
     def sample_start(self, key):
         k_grip, k_obj, k_goal = jax.random.split(key, 3)
@@ -51,6 +57,7 @@ class Grasp(BaxterEnv):
     param_dim = 1
     lift_range = (0.05, 0.08)
     state_dims = tuple(range(25))
+    memory_dims = MANIPULATION_MEMORY_DIMS
 
     def sample_start(self, key):
         k_obj, k_dz, k_r, k_a, k_h = jax.random.split(key, 5)
@@ -82,6 +89,7 @@ class Transfer(BaxterEnv):
     grasped_start = True
     param_dim = 3
     state_dims = tuple(range(25))
+    memory_dims = MANIPULATION_MEMORY_DIMS
 
     def object_goal_box(self):
         low = self.workspace_low.at[2].set(self.table_z + self.object_half)

@@ -1,0 +1,98 @@
+"""Command line of training: one subcommand per method, each with only its own options.
+
+python -m mjx_skills.train ddpg_her --task transit --epochs 20 --seeds 2
+python -m mjx_skills.train --task transit              # the method defaults to ddpg_her
+python -m mjx_skills.train --method ddpg_her ...       # earlier form, still accepted
+python -m mjx_skills.train --resume RUN_DIR            # the run's config.json decides
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from typing import Annotated
+
+import tyro
+
+from mjx_skills import compile_cache, methods
+from mjx_skills.config import EnvConfig, TrainConfig
+from mjx_skills.runner import RunArgs, summary, train_run
+
+DEFAULT_METHOD = "ddpg_her"
+
+ALIASES = {"--physics": "--env.physics"}
+"""Short flags for the most used nested options."""
+
+
+def _expand_alias(arg: str) -> str:
+    flag, sep, value = arg.partition("=")
+    return ALIASES.get(flag, flag) + sep + value
+
+
+def _flag_value(argv: list[str], flag: str) -> tuple[str | None, list[str]]:
+    """-> (value of `flag VALUE` or `flag=VALUE`, argv without it)."""
+    for i, arg in enumerate(argv):
+        if arg == flag:
+            if i + 1 >= len(argv):
+                raise SystemExit(f"error: {flag} needs a value")
+            return argv[i + 1], argv[:i] + argv[i + 2 :]
+        if arg.startswith(flag + "="):
+            return arg.partition("=")[2], argv[:i] + argv[i + 1 :]
+    return None, argv
+
+
+def method_args_type(spec: methods.Method) -> type:
+    """The CLI dataclass of one method: train options without prefix, --env.*, and one
+    prefix per option group of the method (e.g. --ddpg.*)."""
+    fields = [
+        ("train", Annotated[TrainConfig, tyro.conf.OmitArgPrefixes],
+         dataclasses.field(default=TrainConfig())),
+        ("env", EnvConfig, dataclasses.field(default=EnvConfig())),
+        *[(name, type(default), dataclasses.field(default=default))
+          for name, default in spec.options.items()],
+    ]  # fmt: skip
+    cls = dataclasses.make_dataclass(f"{spec.name}_args", fields, frozen=True)
+    cls.__doc__ = spec.description
+    return cls
+
+
+def parse(argv: list[str]) -> RunArgs:
+    """argv -> RunArgs. Raises SystemExit with a one-line message on bad input."""
+    argv = [_expand_alias(arg) for arg in argv]
+    resume, rest = _flag_value(argv, "--resume")
+    if resume is not None:
+        return RunArgs(resume=resume)
+    name, argv = _flag_value(argv, "--method")
+    if name is None and argv and not argv[0].startswith("-"):
+        name, argv = argv[0], argv[1:]
+    if name is None and not any(a in ("-h", "--help") for a in argv):
+        name = DEFAULT_METHOD  # (plain --help lists every method)
+    try:
+        specs = {name: methods.get(name)} if name else methods.METHODS
+    except (ValueError, NotImplementedError) as err:
+        raise SystemExit(f"error: {err}") from None
+    types = {n: method_args_type(spec) for n, spec in specs.items()}
+    parsed = tyro.extras.subcommand_cli_from_dict(
+        types, args=[*([name] if name else []), *argv], description=__doc__
+    )
+    chosen = next(n for n, t in types.items() if isinstance(parsed, t))
+    options = {group: getattr(parsed, group) for group in specs[chosen].options}
+    return RunArgs(train=parsed.train, method=chosen, env=parsed.env, options=options)
+
+
+def main(argv: list[str] | None = None) -> None:
+    compile_cache.enable()
+    try:
+        args = parse(sys.argv[1:] if argv is None else argv)
+    except ValueError as err:  # an invalid config value, raised while tyro builds it
+        raise SystemExit(f"error: {err}") from None
+    try:
+        run_dir = train_run(args)
+    except (FloatingPointError, FileNotFoundError, ValueError, NotImplementedError) as err:
+        # Diverged losses, a bad --resume directory or a checkpoint of another run.
+        raise SystemExit(f"error: {err}") from None
+    print(summary(run_dir))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,278 @@
+"""The skill library L = {(pi, Q, p, T_coarse, memory)} as one pytree (thesis ch. 3).
+
+Every skill's parameters are stacked along a leading skill axis, so a batch of envs can
+each run a different skill in one call: the functions below take a skill-index array and
+gather each env's parameters by index (never `lax.switch`, which under vmap runs every
+branch). All skills share the observation (25) and goal (3) layout; their goal parameters
+(transit 3, grasp 1, transfer 3) are padded to 3.
+
+Saved as an orbax directory plus `manifest.json` (written last: a directory without it is
+a half-written library and is refused).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import orbax.checkpoint as ocp
+from flax import struct
+
+from mjx_skills import __version__, ddpg
+from mjx_skills.config import DDPGConfig, LibraryConfig, from_dict
+from mjx_skills.envs.baxter import BaxterEnv
+from mjx_skills.envs.registry import SKILLS, make
+from mjx_skills.nets import CoarseDynamics, SuccessClassifier
+
+LIBRARIES = {
+    "SL1": ("transit", "grasp", "transfer"),
+    "SL2": ("grasp", "transfer"),
+    "SL3": ("transit", "transfer"),
+}
+"""The thesis's libraries by name (Fig. 6.4): the full one and two reduced ones."""
+PARAM_DIM = 3
+"""Goal parameters padded to the widest skill's (transit and transfer: 3)."""
+FORMAT = 1
+"""Version of the on-disk layout; a library of another format is refused."""
+DEFAULT_DIR = Path("experiments") / "skill_library"
+
+
+def library_skills(name: str) -> tuple[str, ...]:
+    if name not in LIBRARIES:
+        raise ValueError(f"unknown library {name!r}; valid: {', '.join(LIBRARIES)}")
+    return LIBRARIES[name]
+
+
+@struct.dataclass
+class Norm:
+    mean: jax.Array
+    std: jax.Array
+
+    def apply(self, x: jax.Array) -> jax.Array:
+        return (x - self.mean) / self.std
+
+
+@struct.dataclass
+class SkillLibrary:
+    policy: ddpg.DDPGState
+    """Each skill's DDPG actor and critic with their normalisers, stacked (K, ...)."""
+    dynamics: Any
+    """Coarse dynamics model parameters, stacked (K, ...)."""
+    classifier: Any
+    """Success classifier parameters, stacked (K, ...)."""
+    input_norm: Norm
+    """(K, obs_dim + goal_dim) statistics of the models' inputs (start state, goal)."""
+    delta_norm: Norm
+    """(K, obs_dim) statistics of the terminal-minus-start state the model predicts."""
+    state_mask: jax.Array
+    """(K, obs_dim) bool: the dimensions a skill changes; the others stay as they were."""
+    memory_key_mask: jax.Array
+    """(K, obs_dim + goal_dim) bool: the dimensions memory retrieval compares."""
+    memory_keys: jax.Array
+    """(K, M, obs_dim + goal_dim) stored (start state, goal) of successful runs."""
+    memory_next: jax.Array
+    """(K, M, obs_dim) their terminal states."""
+    memory_valid: jax.Array
+    """(K, M) bool: slots that hold a memory."""
+    names: tuple[str, ...] = struct.field(pytree_node=False)
+    ddpg_config: DDPGConfig = struct.field(pytree_node=False)
+    config: LibraryConfig = struct.field(pytree_node=False)
+
+    @property
+    def envs(self) -> tuple[BaxterEnv, ...]:
+        return skill_envs(self.names)
+
+    # ------------------------------------------------------------------ batched skills
+    def index(self, name: str) -> int:
+        if name not in self.names:
+            raise ValueError(f"unknown skill {name!r}; this library has: {', '.join(self.names)}")
+        return self.names.index(name)
+
+    def _gather(self, tree: Any, skill: jax.Array) -> Any:
+        return jax.tree.map(lambda p: p[skill], tree)
+
+    def policy_action(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """skill (B,) int, obs (B, obs_dim), goal (B, 3) -> deterministic actions (B, 4)."""
+        act = lambda p, o, g: ddpg.act(p, o, g, self.ddpg_config)
+        return jax.vmap(act)(self._gather(self.policy, skill), obs, goal)
+
+    def q(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """Q^i(s, g, pi^i(s, g)) per env: (B,)."""
+
+        def value(p, o, g):
+            return ddpg.q_value(p, o, g, ddpg.act(p, o, g, self.ddpg_config), self.ddpg_config)
+
+        return jax.vmap(value)(self._gather(self.policy, skill), obs, goal)
+
+    def _model_inputs(self, skill, obs, goal):
+        norm = self._gather(self.input_norm, skill)
+        x = norm.apply(jnp.concatenate([obs, goal], axis=-1))
+        d = obs.shape[-1]
+        return x[..., :d], x[..., d:]
+
+    def success_prob(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """Classifier's probability that the skill reaches `goal` from `obs`: (B,)."""
+        o, g = self._model_inputs(skill, obs, goal)
+        net = SuccessClassifier(tuple(self.config.classifier_hidden))
+        logit = jax.vmap(net.apply)(self._gather(self.classifier, skill), o, g)
+        return jax.nn.sigmoid(logit)
+
+    def next_state(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """Coarse model's terminal observation (B, obs_dim): a full observation any skill
+        accepts; dimensions the skill does not change are copied from `obs`."""
+        o, g = self._model_inputs(skill, obs, goal)
+        net = CoarseDynamics(obs.shape[-1], tuple(self.config.model_hidden))
+        delta_n = jax.vmap(net.apply)(self._gather(self.dynamics, skill), o, g)
+        norm = self._gather(self.delta_norm, skill)
+        delta = delta_n * norm.std + norm.mean
+        return consistent(obs, jnp.where(self.state_mask[skill], obs + delta, obs))
+
+    def recall(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """Memory-based terminal observation (B, obs_dim): the terminal state of the nearest
+        stored (start, goal) over the skill's own dimensions; other dimensions copied."""
+        query = jnp.concatenate([obs, goal], axis=-1)
+        mask = self.memory_key_mask[skill]
+
+        def nearest(k, q, m):
+            diff = (self.memory_keys[k] - q) * m
+            dist = jnp.where(self.memory_valid[k], jnp.sum(diff * diff, axis=-1), jnp.inf)
+            return self.memory_next[k, jnp.argmin(dist)]
+
+        found = jax.vmap(nearest)(skill, query, mask)
+        return consistent(obs, jnp.where(self.state_mask[skill], found, obs))
+
+    def goal_from_param(self, skill: jax.Array, param: jax.Array, obs: jax.Array) -> jax.Array:
+        """param (B, 3) in [-1, 1] (only the skill's first param_dim used) -> goal (B, 3)."""
+        goals = jnp.stack(
+            [env.goal_from_param(param[..., : env.param_dim], obs) for env in self.envs]
+        )
+        return _select(goals, skill)
+
+    def terminated(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """Whether each env's running skill has stopped: (B,) bool."""
+        done = jnp.stack([env.terminated(obs, goal) for env in self.envs])
+        return _select(done, skill)
+
+
+def _select(stacked: jax.Array, skill: jax.Array) -> jax.Array:
+    """stacked (K, B, ...), skill (B,) -> (B, ...): row skill[b] for env b."""
+    return jnp.take_along_axis(stacked, skill.reshape(1, -1, *[1] * (stacked.ndim - 2)), 0)[0]
+
+
+def consistent(start: jax.Array, predicted: jax.Array) -> jax.Array:
+    """Recompute the derived part of a predicted observation (object minus grip)."""
+    from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL
+
+    rel = predicted[..., OBS_OBJECT] - predicted[..., OBS_GRIP]
+    return predicted.at[..., OBS_REL].set(rel)
+
+
+def skill_envs(names: tuple[str, ...]) -> tuple[BaxterEnv, ...]:
+    return tuple(_skill_env(n) for n in names)
+
+
+_ENV_CACHE: dict[str, BaxterEnv] = {}
+
+
+def _skill_env(name: str) -> BaxterEnv:
+    if name not in SKILLS:
+        raise ValueError(f"unknown skill {name!r}; valid: {', '.join(SKILLS)}")
+    if name not in _ENV_CACHE:
+        _ENV_CACHE[name] = make(name)
+    return _ENV_CACHE[name]
+
+
+def subset(lib: SkillLibrary, name: str) -> SkillLibrary:
+    """The reduced library `name` (SL1, SL2, SL3) of a full library."""
+    idx = np.array([lib.index(s) for s in library_skills(name)])
+    arrays = jax.tree.map(lambda x: x[idx], lib)
+    return arrays.replace(names=tuple(lib.names[i] for i in idx))
+
+
+# ---------------------------------------------------------------------- artifact on disk
+def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any]) -> Path:
+    """Write the library to `directory` (which must not exist): arrays through orbax into a
+    temporary sibling, then manifest.json, then one rename, so a reader never sees half."""
+    directory = Path(directory).resolve()
+    if directory.exists():
+        raise FileExistsError(f"{directory} exists; a library is never overwritten")
+    tmp = directory.with_name(f".{directory.name}.partial-{int(time.time())}")
+    with ocp.StandardCheckpointer() as ckpt:
+        ckpt.save(tmp / "arrays", lib)
+    full = {**manifest, "format": FORMAT, "version": __version__, "skills": list(lib.names),
+            "ddpg": dataclasses.asdict(lib.ddpg_config),
+            "library": dataclasses.asdict(lib.config), "complete": True}  # fmt: skip
+    (tmp / "manifest.json").write_text(json.dumps(full, indent=2))
+    tmp.rename(directory)
+    return directory
+
+
+def read_manifest(directory: Path) -> dict[str, Any]:
+    directory = Path(directory)
+    path = directory / "manifest.json"
+    if not directory.exists():
+        raise FileNotFoundError(
+            f"no skill library at {directory}; build it with `make skills` "
+            f"(python -m mjx_skills.skills --out {directory})"
+        )
+    if not path.exists():
+        raise ValueError(f"{directory} is a half-written skill library (no manifest.json)")
+    manifest = json.loads(path.read_text())
+    if not manifest.get("complete") or manifest.get("format") != FORMAT:
+        raise ValueError(
+            f"{directory} holds a library of format {manifest.get('format')} (version "
+            f"{manifest.get('version')}); this code reads format {FORMAT}: rebuild it"
+        )
+    return manifest
+
+
+def load(directory: Path) -> tuple[SkillLibrary, dict[str, Any]]:
+    """-> (library, manifest). Refuses a missing, half-written or incompatible library."""
+    manifest = read_manifest(directory)
+    config = from_dict(LibraryConfig, manifest["library"])
+    ddpg_config = from_dict(DDPGConfig, manifest["ddpg"])
+    like = empty_like(tuple(manifest["skills"]), ddpg_config, config, manifest["memory_size"])
+    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, like)
+    try:
+        with ocp.StandardCheckpointer() as ckpt:
+            lib = ckpt.restore(Path(directory).resolve() / "arrays", abstract)
+    except Exception as err:  # noqa: BLE001 - any unreadable array file means a bad library
+        raise ValueError(f"{directory}: the library's arrays do not load ({err})") from None
+    return lib, manifest
+
+
+def empty_like(
+    names: tuple[str, ...], ddpg_config: DDPGConfig, config: LibraryConfig, memory_size: int
+) -> SkillLibrary:
+    """A library of the right shapes and zeros (the template that loading fills in)."""
+    from mjx_skills.fit import init_models
+
+    K, obs_dim, goal_dim = len(names), 25, 3
+    keys = jax.random.split(jax.random.PRNGKey(0), K)
+    policy = jax.vmap(lambda k: ddpg.init(k, obs_dim, goal_dim, 4, ddpg_config))(keys)
+    dynamics, classifier = init_models(keys, config, obs_dim, goal_dim)
+    d_in = obs_dim + goal_dim
+    unit = lambda d: Norm(mean=jnp.zeros((K, d)), std=jnp.ones((K, d)))
+    return SkillLibrary(
+        policy=policy, dynamics=dynamics, classifier=classifier,
+        input_norm=unit(d_in), delta_norm=unit(obs_dim),
+        state_mask=jnp.zeros((K, obs_dim), bool), memory_key_mask=jnp.zeros((K, d_in), bool),
+        memory_keys=jnp.zeros((K, memory_size, d_in)),
+        memory_next=jnp.zeros((K, memory_size, obs_dim)),
+        memory_valid=jnp.zeros((K, memory_size), bool),
+        names=names, ddpg_config=ddpg_config, config=config,
+    )  # fmt: skip
+
+
+def remove_partials(directory: Path) -> None:
+    """Delete half-written siblings an interrupted save left behind."""
+    directory = Path(directory).resolve()
+    for stale in directory.parent.glob(f".{directory.name}.partial-*"):
+        shutil.rmtree(stale, ignore_errors=True)

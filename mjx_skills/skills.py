@@ -1,0 +1,284 @@
+"""Build the skill library: train each skill, collect its data, fit its models, save.
+
+    python -m mjx_skills.skills                      # or `make skills`
+    python -m mjx_skills.skills --out DIR --samples 100000
+    python -m mjx_skills.skills --table              # Table 5.1 of the library at --out
+
+Phases, each with its progress bar and its time in the manifest: (1) DDPG+HER per skill on
+its skill env (grasp with held starts in training), its success measured on fresh episodes
+of its true start distribution; (2) collection; (3) the vmapped fits; (4) the artifact.
+The skills' training runs live in a work directory beside the library, so an interrupted
+build resumes them; the library itself is written once, atomically, and never overwritten.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Annotated
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import tyro
+from tqdm.auto import tqdm
+
+from mjx_skills import compile_cache, fit, library, rollout
+from mjx_skills.config import DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
+from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
+from mjx_skills.envs.registry import SKILLS
+from mjx_skills.methods import make_ddpg_her
+from mjx_skills.runner import RunArgs, train_and_keep
+
+TABLE = Path("experiments") / "results" / "table_5_1.csv"
+THESIS_CM = {"transit": (1.9, 1.6), "grasp": (2.8, 1.2), "transfer": (4.6, 2.0)}
+"""Table 5.1 of the thesis: (memory retrieval, neural network) terminal-position error, cm."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SkillsArgs:
+    config: Annotated[LibraryConfig, tyro.conf.OmitArgPrefixes] = LibraryConfig()
+    out: str = str(library.DEFAULT_DIR)
+    """Directory of the library (must not exist yet, unless with --table)."""
+    table: bool = False
+    """Only write Table 5.1 (experiments/results/table_5_1.csv) from the library at --out."""
+    progress: bool = True
+    """Draw progress bars."""
+
+
+def _epochs(name: str, config: LibraryConfig) -> int:
+    return getattr(config, f"{name}_epochs")
+
+
+def _latest_run(work: Path, name: str) -> Path | None:
+    runs = sorted((work / name / "ddpg_her").glob("*/config.json")) if work.exists() else []
+    return runs[-1].parent if runs else None
+
+
+def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
+    """DDPG+HER on the skill's env (resuming an interrupted run in `work`) -> (agent, run dir)."""
+    held = config.grasp_held_start_prob if name == "grasp" else 0.0
+    previous = _latest_run(work, name)
+    args = RunArgs(
+        train=TrainConfig(task=name, epochs=_epochs(name, config), seed=config.seed,
+                          replay_capacity=200_000, out=str(work), progress=progress),
+        env=EnvConfig(held_start_prob=held),
+        resume=str(previous) if previous else None,
+    )  # fmt: skip
+    run_dir, carry = train_and_keep(args)
+    return jax.tree.map(lambda x: x[0], carry.agent), run_dir
+
+
+def skill_success(name: str, agent, episodes: int, seed: int) -> float:
+    """Success at the last step of `episodes` fresh episodes from the skill's true start
+    distribution with the frozen deterministic policy (native backend)."""
+    env = library.skill_envs((name,))[0]
+    train = TrainConfig(task=name, eval_episodes=episodes)
+    learner = make_ddpg_her(env, train, DDPGConfig())
+    evaluate = jax.jit(lambda a, k: rollout.run_episodes(env, learner.evaluate(a, None), k,
+                                                          episodes)[1].metrics["success"])  # fmt: skip
+    return float(jnp.mean(evaluate(agent, jax.random.PRNGKey(10_000 + seed))))
+
+
+def collect_skill(name: str, agent, config: LibraryConfig, progress: bool) -> dict[str, np.ndarray]:
+    """`config.samples` skill runs in chunks of `collect_envs` (one compiled program)."""
+    envs = library.skill_envs(SKILLS)
+    own = SKILLS.index(name)
+    chunk = min(config.collect_envs, config.samples)
+    counts = fit.start_counts(chunk, own, len(envs), config.own_start_share)
+    collect = jax.jit(fit.make_collect(envs[own], envs, counts, DDPGConfig()))
+    parts = []
+    n_chunks = -(-config.samples // chunk)
+    for i in tqdm(range(n_chunks), desc=f"collect {name}", disable=not progress, unit="chunk"):
+        key = jax.random.fold_in(jax.random.PRNGKey(config.seed), 1000 * own + i)
+        parts.append(jax.tree.map(np.asarray, collect(agent, key)))
+    data = {k: np.concatenate([p[k] for p in parts])[: config.samples] for k in parts[0]}
+    order = np.random.default_rng(config.seed + own).permutation(config.samples)
+    return {k: v[order] for k, v in data.items()}
+
+
+def fit_library(names, agents, data, config: LibraryConfig, progress: bool):
+    """The vmapped fits over the skill axis -> (SkillLibrary, per-skill metrics, history)."""
+    envs = library.skill_envs(names)
+    K, N = len(names), config.samples
+    n_val = max(1, int(N * config.holdout))
+    stack = lambda key: np.stack([data[n][key] for n in names])  # (K, N, ...)
+    s0, goal, s_T, success = stack("s0"), stack("goal"), stack("s_T"), stack("success")
+    obs_dim = s0.shape[-1]
+    x = np.concatenate([s0, goal], axis=-1)
+    delta = s_T - s0
+    train_w = np.ones((K, N), np.float32)
+    train_w[:, N - n_val :] = 0.0
+    in_stats = [fit.standardize(x[k], train_w[k]) for k in range(K)]
+    d_stats = [fit.standardize(delta[k], train_w[k] * success[k]) for k in range(K)]
+    in_norm = library.Norm(*map(jnp.asarray, map(np.stack, zip(*in_stats, strict=True))))
+    d_norm = library.Norm(*map(jnp.asarray, map(np.stack, zip(*d_stats, strict=True))))
+    xn = (x - in_norm.mean[:, None]) / in_norm.std[:, None]
+    dims = np.zeros((K, obs_dim), np.float32)
+    for k, env in enumerate(envs):
+        dims[k, list(env.state_dims)] = 1.0
+    o, g = xn[..., :obs_dim], xn[..., obs_dim:]
+    y_dyn = (delta - d_norm.mean[:, None]) / d_norm.std[:, None]
+
+    def split(w_all, y):
+        tr = {"o": o[:, : N - n_val], "g": g[:, : N - n_val], "y": y[:, : N - n_val],
+              "w": w_all[:, : N - n_val], "dims": dims}  # fmt: skip
+        va = {"o": o[:, N - n_val :], "g": g[:, N - n_val :], "y": y[:, N - n_val :],
+              "w": w_all[:, N - n_val :], "dims": dims}  # fmt: skip
+        return jax.tree.map(jnp.asarray, tr), jax.tree.map(jnp.asarray, va)
+
+    keys = jax.random.split(jax.random.PRNGKey(config.seed + 7), K)
+    dyn0, clf0 = fit.init_models(keys, config, obs_dim, goal.shape[-1])
+    bar = tqdm(total=2 * config.fit_epochs, desc="fit models", disable=not progress)
+    tick = lambda i, val: bar.update(1)
+    dyn_tr, dyn_va = split(success.astype(np.float32), y_dyn)
+    dyn, dyn_hist = fit.fit(dyn0, dyn_tr, dyn_va, fit.dynamics_loss(obs_dim, config.model_hidden),
+                            config.model_lr, config, keys[0], tick)  # fmt: skip
+    clf_tr, clf_va = split(np.ones((K, N), np.float32), success.astype(np.float32))
+    clf, clf_hist = fit.fit(clf0, clf_tr, clf_va, fit.classifier_loss(config.classifier_hidden),
+                            config.classifier_lr, config, keys[1], tick)  # fmt: skip
+    bar.close()
+    lib = _assemble(
+        names, agents, dyn, clf, in_norm, d_norm, dims, x, s_T, success, N - n_val, config
+    )
+    history = {"dynamics": dyn_hist, "classifier": clf_hist}
+    return (
+        lib,
+        evaluate_models(lib, x[:, N - n_val :], s_T[:, N - n_val :], success[:, N - n_val :]),
+        history,
+    )
+
+
+def _assemble(names, agents, dyn, clf, in_norm, d_norm, dims, x, s_T, success, n_train, config):
+    """SkillLibrary with memories of the training split's successes (padded to the largest)."""
+    envs = library.skill_envs(names)
+    K, obs_dim = len(names), s_T.shape[-1]
+    ok = [np.flatnonzero(success[k, :n_train]) for k in range(K)]
+    M = max(1, max(len(i) for i in ok))
+    keys = np.zeros((K, M, x.shape[-1]), np.float32)
+    nxt = np.zeros((K, M, obs_dim), np.float32)
+    valid = np.zeros((K, M), bool)
+    key_mask = np.zeros((K, x.shape[-1]), bool)
+    for k, env in enumerate(envs):
+        keys[k, : len(ok[k])], nxt[k, : len(ok[k])] = x[k, ok[k]], s_T[k, ok[k]]
+        valid[k, : len(ok[k])] = True
+        key_mask[k, list(env.memory_dims) + list(range(obs_dim, x.shape[-1]))] = True
+    policy = jax.tree.map(lambda *p: jnp.stack(p), *agents)
+    return library.SkillLibrary(
+        policy=policy, dynamics=dyn, classifier=clf, input_norm=in_norm, delta_norm=d_norm,
+        state_mask=jnp.asarray(dims > 0), memory_key_mask=jnp.asarray(key_mask),
+        memory_keys=jnp.asarray(keys), memory_next=jnp.asarray(nxt),
+        memory_valid=jnp.asarray(valid), names=tuple(names), ddpg_config=DDPGConfig(),
+        config=config,
+    )  # fmt: skip
+
+
+def evaluate_models(lib: library.SkillLibrary, x, s_T, success) -> dict[str, dict[str, float]]:
+    """Held-out Table 5.1 figures per skill: terminal-position error (cm) of memory and model
+    on successful runs (grip for transit, cube otherwise), classifier accuracy and AUC."""
+    obs_dim = s_T.shape[-1]
+    out = {}
+    for k, (name, env) in enumerate(zip(lib.names, lib.envs, strict=True)):
+        obs, goal = jnp.asarray(x[k, :, :obs_dim]), jnp.asarray(x[k, :, obs_dim:])
+        ids = jnp.full((obs.shape[0],), k, jnp.int32)
+        pos = OBS_OBJECT if env.goal_is_object else OBS_GRIP
+        ok = success[k].astype(bool)
+        model = np.asarray(jax.jit(lib.next_state)(ids, obs, goal))
+        memory = np.concatenate([np.asarray(jax.jit(lib.recall)(ids[i : i + 512], obs[i : i + 512], goal[i : i + 512]))
+                                 for i in range(0, obs.shape[0], 512)])  # fmt: skip
+        prob = np.asarray(jax.jit(lib.success_prob)(ids, obs, goal))
+        out[name] = {
+            "memory_error_cm": _position_error_cm(memory[ok], s_T[k][ok], pos),
+            "model_error_cm": _position_error_cm(model[ok], s_T[k][ok], pos),
+            "classifier_accuracy": float(np.mean((prob > 0.5) == ok)),
+            "classifier_auc": fit.auc(prob, ok), "held_out": int(len(ok)),
+            "held_out_successes": int(ok.sum()),
+        }  # fmt: skip
+    return out
+
+
+def _position_error_cm(predicted: np.ndarray, actual: np.ndarray, pos: slice) -> float:
+    return float(100 * np.mean(np.linalg.norm(predicted[:, pos] - actual[:, pos], axis=-1)))
+
+
+def build(args: SkillsArgs) -> Path:
+    """Every phase -> the library directory."""
+    out = Path(args.out).resolve()
+    if out.exists():
+        raise FileExistsError(
+            f"{out} exists; a library is never overwritten (choose another --out, or delete it)"
+        )
+    library.remove_partials(out)
+    work = out.with_name(f".{out.name}.work")
+    config, timings, success, agents, runs, data = args.config, {}, {}, [], {}, {}
+    for name in SKILLS:
+        t0 = time.time()
+        agent, runs[name] = train_skill(name, config, work, args.progress)
+        success[name] = skill_success(name, agent, config.skill_eval_episodes, config.seed)
+        agents.append(agent)
+        timings[f"train_{name}_s"] = round(time.time() - t0, 1)
+        print(f"{name}: success {success[name]:.3f} on {config.skill_eval_episodes} fresh "
+              f"episodes ({timings[f'train_{name}_s']} s)", file=sys.stderr)  # fmt: skip
+    t0 = time.time()
+    for name, agent in zip(SKILLS, agents, strict=True):
+        data[name] = collect_skill(name, agent, config, args.progress)
+    timings["collect_s"] = round(time.time() - t0, 1)
+    t0 = time.time()
+    lib, metrics, history = fit_library(SKILLS, agents, data, config, args.progress)
+    timings["fit_s"] = round(time.time() - t0, 1)
+    manifest = {
+        "skill_success": success, "skill_runs": {n: str(r) for n, r in runs.items()},
+        "models": metrics, "timings_s": timings,
+        "memory_size": int(lib.memory_keys.shape[1]),
+        "samples": {n: {"total": int(len(d["success"])), "successes": int(d["success"].sum()),
+                        "success_by_start": _by_source(d)} for n, d in data.items()},
+        "dims": {n: {"state_dims": list(e.state_dims), "memory_dims": list(e.memory_dims),
+                     "param_dim": e.param_dim} for n, e in zip(SKILLS, lib.envs, strict=True)},
+        "fit_history": history,
+    }  # fmt: skip
+    return library.save(lib, out, manifest)
+
+
+def _by_source(d: dict[str, np.ndarray]) -> dict[str, float]:
+    return {SKILLS[i] + "_start": float(d["success"][d["source"] == i].mean())
+            for i in np.unique(d["source"])}  # fmt: skip
+
+
+def write_table(directory: Path, path: Path = TABLE) -> Path:
+    """Table 5.1 from a library's manifest, with the thesis's figures beside ours."""
+    manifest = library.read_manifest(directory)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["skill", "memory_error_cm", "model_error_cm", "thesis_memory_cm",
+                    "thesis_model_cm", "classifier_accuracy", "classifier_auc", "samples",
+                    "skill_success"])  # fmt: skip
+        for name, m in manifest["models"].items():
+            w.writerow([name, f"{m['memory_error_cm']:.2f}", f"{m['model_error_cm']:.2f}",
+                        *THESIS_CM[name], f"{m['classifier_accuracy']:.3f}",
+                        f"{m['classifier_auc']:.3f}", manifest["samples"][name]["total"],
+                        f"{manifest['skill_success'][name]:.3f}"])  # fmt: skip
+    return path
+
+
+def main(argv: list[str] | None = None) -> None:
+    compile_cache.enable()
+    try:
+        args = tyro.cli(SkillsArgs, args=sys.argv[1:] if argv is None else argv,
+                        description=__doc__)  # fmt: skip
+        if args.table:
+            print(f"wrote {write_table(Path(args.out))}")
+            return
+        out = build(args)
+        print(json.dumps(library.read_manifest(out)["models"], indent=1))
+        print(f"library written to {out}")
+    except (ValueError, FileExistsError, FileNotFoundError) as err:
+        raise SystemExit(f"error: {err}") from None
+
+
+if __name__ == "__main__":
+    main()
