@@ -4,8 +4,9 @@ VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.stamp-setup
 TASK    ?= pick_move
-METHOD  ?= ddpg_her
+METHOD  ?= ddpg_her_sl
 EPOCHS  ?= 50
+LIBRARY := experiments/skill_library
 SEEDS   ?= 1
 OUT     ?= runs
 ARGS    ?=
@@ -20,12 +21,14 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install --quiet -e '.[dev,notebook]'
 	touch $(STAMP)
 
+# DDPG+HER+SL by default; it builds the skill library first if there is none.
 train: setup
-	$(BIN)/python -m mjx_skills.train --task $(TASK) --method $(METHOD) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
+	@if [ "$(METHOD)" = ddpg_her_sl ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills; fi
+	$(BIN)/python -m mjx_skills.train $(METHOD) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
 
+# Train transit / grasp / transfer, collect their data, fit their models (about 10 min).
 skills: setup
-	@test -f mjx_skills/library.py || { echo "make skills: the skill library (mjx_skills/library.py) is not built yet"; exit 1; }
-	$(BIN)/python -m mjx_skills.library $(ARGS)
+	$(BIN)/python -m mjx_skills.skills --out $(LIBRARY) $(ARGS)
 
 sweep: setup
 	@test -f mjx_skills/sweep.py || { echo "make sweep: mjx_skills/sweep.py is not built yet"; exit 1; }

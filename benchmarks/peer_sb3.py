@@ -40,9 +40,9 @@ import numpy as np
 import mjx_skills.envs.gym  # noqa: F401  (registers MjxSkills/*-v0)
 from mjx_skills import compile_cache
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
+from mjx_skills.ddpg_her import make_ddpg_her
 from mjx_skills.envs import make
 from mjx_skills.envs.gym import gym_id
-from mjx_skills.methods import make_ddpg_her
 from mjx_skills.train import init_carry, make_evaluate, make_train_cycles
 
 EPISODES_PER_EPOCH, EVAL_EPISODES = 16, 20

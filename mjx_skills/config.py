@@ -209,7 +209,7 @@ class LibraryConfig:
     original code's 0.5); evaluation and data collection never do."""
     skill_eval_episodes: int = 200
     """Fresh episodes from each skill's true start distribution that measure its success."""
-    samples: int = 30_000
+    samples: int = 10_000
     """(start, goal) pairs run per skill for the models and memories (thesis: 100,000)."""
     own_start_share: float = 0.5
     """Share of those starts drawn from the skill's own start distribution; the rest come
@@ -250,3 +250,57 @@ class LibraryConfig:
             _check(len(widths) > 0 and all(w > 0 for w in widths), name, "need >= 1 positive width")
         for name in ("model_lr", "classifier_lr"):
             _check(getattr(self, name) > 0, name, "must be > 0")
+
+
+@dataclasses.dataclass(frozen=True)
+class SearchConfig:
+    """DDPG+HER+SL: look-ahead search over the skill library as exploration (thesis ch. 5)."""
+
+    library: Literal["SL1", "SL2", "SL3"] = "SL1"
+    """Skills the search may use: SL1 = transit, grasp, transfer; SL2 = grasp, transfer;
+    SL3 = transit, transfer (thesis Fig. 6.4)."""
+    library_dir: str = "experiments/skill_library"
+    """Where the built library is (`make skills` writes it there)."""
+    explorer: Literal["search", "scripted"] = "search"
+    """What drives the exploring steps: the look-ahead search over the library, or the
+    task's scripted controller (an oracle: the upper bound the search is compared with)."""
+    branching: int = 5
+    """(skill, goal) pairs sampled at every node (thesis: 5)."""
+    height: int = 3
+    """Depth of the tree (thesis: 3): 5 + 25 + 125 edges at the defaults."""
+    prune_below: float = 0.5
+    """Edges whose success probability is at or below this are pruned (thesis: 0.5)."""
+    lookahead_next: Literal["model", "memory"] = "model"
+    """Next state of an edge: the coarse dynamics model or memory retrieval."""
+    leaf_value: Literal["distance", "reward"] = "distance"
+    """Value of a path's last state: minus its distance to the task goal in units of the
+    task's success threshold (the original code) or the task's sparse reward (the text)."""
+    gamma: float = 0.98
+    """Discount of later edges' values along a path."""
+    object_goal_noise: float = 0.03
+    """Transit goals are sampled within +- this (m) of the object in x and y (thesis: 3 cm)."""
+    transit_height: tuple[float, float] = (0.03, 0.045)
+    """... and this far above its centre (m): where the grasp skill starts."""
+    transfer_goal_noise: float = 0.03
+    """Transfer goals are sampled within +- this (m) of the task goal."""
+    skill_steps: int = 10
+    """w: a searched skill runs until it terminates or for this many steps (thesis: 10)."""
+    eps_start: float = 1.0
+    """Probability of exploring with the search at a decision, at epoch 0 (thesis: 1.0)."""
+    eps_end: float = 0.001
+    """... decaying linearly to this (thesis: 0.001) ..."""
+    eps_decay_epochs: int = 30
+    """... over this many epochs."""
+
+    def __post_init__(self) -> None:
+        for name in ("branching", "height", "skill_steps", "eps_decay_epochs"):
+            _check(getattr(self, name) >= 1, name, "must be >= 1")
+        _check(0.0 <= self.prune_below < 1.0, "prune_below", "must lie in [0, 1)")
+        _check(0.0 < self.gamma <= 1.0, "gamma", "must lie in (0, 1]")
+        _check(0.0 <= self.eps_end <= self.eps_start <= 1.0, "eps_start",
+               "need 0 <= eps_end <= eps_start <= 1")  # fmt: skip
+        lo, hi = self.transit_height
+        _check(0.0 <= lo <= hi, "transit_height", "need 0 <= low <= high")
+        for name in ("object_goal_noise", "transfer_goal_noise"):
+            _check(getattr(self, name) >= 0, name, "must be >= 0")
+        _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")

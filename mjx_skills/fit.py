@@ -167,10 +167,11 @@ def fit(
     loss: Callable,
     lr: float,
     config: LibraryConfig,
-    key: jax.Array,
+    keys: jax.Array,
     progress: Callable[[int, np.ndarray], None] | None = None,
 ) -> tuple[Any, list[dict[str, list[float]]]]:
-    """Fit stacked parameters (K, ...) of K skills at once; data leaves (K, N, ...).
+    """Fit stacked parameters (K, ...) of K skills at once; data leaves (K, N, ...), one key
+    per skill (K,) (so a skill's fit is the same alone or stacked with others).
 
     Each pass is one jitted program vmapped over the skill axis. Per skill, the parameters
     with the lowest held-out loss are kept, and the fit ends when no skill has improved for
@@ -183,10 +184,9 @@ def fit(
     best, best_loss = params, np.asarray(val_loss(params, val))
     since = np.zeros(best_loss.shape, int)
     history = []
-    K = best_loss.shape[0]
     for i in range(config.fit_epochs):
-        keys = jax.random.split(jax.random.fold_in(key, i), K)
-        params, opt_state, train_loss = epoch(params, opt_state, train, keys)
+        epoch_keys = jax.vmap(lambda k, i=i: jax.random.fold_in(k, i))(keys)
+        params, opt_state, train_loss = epoch(params, opt_state, train, epoch_keys)
         current = np.asarray(val_loss(params, val))
         improved = current < best_loss
         best = _keep_improved(best, params, improved)

@@ -52,11 +52,10 @@ def library_skills(name: str) -> tuple[str, ...]:
 
 @struct.dataclass
 class Norm:
+    """Per-skill statistics (K, d) that normalise a model's inputs or outputs."""
+
     mean: jax.Array
     std: jax.Array
-
-    def apply(self, x: jax.Array) -> jax.Array:
-        return (x - self.mean) / self.std
 
 
 @struct.dataclass
@@ -95,57 +94,61 @@ class SkillLibrary:
             raise ValueError(f"unknown skill {name!r}; this library has: {', '.join(self.names)}")
         return self.names.index(name)
 
-    def _gather(self, tree: Any, skill: jax.Array) -> Any:
-        return jax.tree.map(lambda p: p[skill], tree)
+    def _each(self, fn, tree: Any, *rows: jax.Array) -> jax.Array:
+        """fn(skill_params, *rows) for every skill of the library -> (K, B, ...). With three
+        small skills this costs less than gathering each row's parameters, which would copy
+        a whole network per row (a search asks for thousands of rows)."""
+        return jax.vmap(lambda p: fn(p, *rows))(tree)
 
     def policy_action(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """skill (B,) int, obs (B, obs_dim), goal (B, 3) -> deterministic actions (B, 4)."""
         act = lambda p, o, g: ddpg.act(p, o, g, self.ddpg_config)
-        return jax.vmap(act)(self._gather(self.policy, skill), obs, goal)
+        return _select(self._each(act, self.policy, obs, goal), skill)
 
     def q(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
-        """Q^i(s, g, pi^i(s, g)) per env: (B,)."""
+        """Q^i(s, g, pi^i(s, g)) per row: (B,)."""
+        cfg = self.ddpg_config
+        value = lambda p, o, g: ddpg.q_value(p, o, g, ddpg.act(p, o, g, cfg), cfg)
+        return _select(self._each(value, self.policy, obs, goal), skill)
 
-        def value(p, o, g):
-            return ddpg.q_value(p, o, g, ddpg.act(p, o, g, self.ddpg_config), self.ddpg_config)
-
-        return jax.vmap(value)(self._gather(self.policy, skill), obs, goal)
-
-    def _model_inputs(self, skill, obs, goal):
-        norm = self._gather(self.input_norm, skill)
-        x = norm.apply(jnp.concatenate([obs, goal], axis=-1))
+    def _model_inputs(self, obs, goal):
+        """(K, B, .) normalised inputs of every skill's models."""
+        x = jnp.concatenate([obs, goal], axis=-1)
+        xn = (x - self.input_norm.mean[:, None]) / self.input_norm.std[:, None]
         d = obs.shape[-1]
-        return x[..., :d], x[..., d:]
+        return xn[..., :d], xn[..., d:]
 
     def success_prob(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Classifier's probability that the skill reaches `goal` from `obs`: (B,)."""
-        o, g = self._model_inputs(skill, obs, goal)
+        o, g = self._model_inputs(obs, goal)
         net = SuccessClassifier(tuple(self.config.classifier_hidden))
-        logit = jax.vmap(net.apply)(self._gather(self.classifier, skill), o, g)
-        return jax.nn.sigmoid(logit)
+        logits = jax.vmap(net.apply)(self.classifier, o, g)
+        # Clipped: a sigmoid of a very negative logit is a subnormal float, and subnormals
+        # slow a CPU's arithmetic down by orders of magnitude.
+        return jax.nn.sigmoid(jnp.clip(_select(logits, skill), -30.0, 30.0))
 
     def next_state(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Coarse model's terminal observation (B, obs_dim): a full observation any skill
         accepts; dimensions the skill does not change are copied from `obs`."""
-        o, g = self._model_inputs(skill, obs, goal)
+        o, g = self._model_inputs(obs, goal)
         net = CoarseDynamics(obs.shape[-1], tuple(self.config.model_hidden))
-        delta_n = jax.vmap(net.apply)(self._gather(self.dynamics, skill), o, g)
-        norm = self._gather(self.delta_norm, skill)
-        delta = delta_n * norm.std + norm.mean
+        delta_n = _select(jax.vmap(net.apply)(self.dynamics, o, g), skill)
+        delta = delta_n * self.delta_norm.std[skill] + self.delta_norm.mean[skill]
         return consistent(obs, jnp.where(self.state_mask[skill], obs + delta, obs))
 
     def recall(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Memory-based terminal observation (B, obs_dim): the terminal state of the nearest
         stored (start, goal) over the skill's own dimensions; other dimensions copied."""
         query = jnp.concatenate([obs, goal], axis=-1)
-        mask = self.memory_key_mask[skill]
 
-        def nearest(k, q, m):
-            diff = (self.memory_keys[k] - q) * m
-            dist = jnp.where(self.memory_valid[k], jnp.sum(diff * diff, axis=-1), jnp.inf)
-            return self.memory_next[k, jnp.argmin(dist)]
+        def nearest(keys, valid, mask):
+            # |q - k|^2 = |q|^2 - 2 q.k + |k|^2: one matmul, no (B, M, D) difference tensor.
+            q, k = query * mask, keys * mask
+            d = jnp.sum(q * q, -1)[:, None] - 2.0 * q @ k.T + jnp.sum(k * k, -1)[None]
+            return jnp.argmin(jnp.where(valid[None], d, jnp.inf), axis=1)
 
-        found = jax.vmap(nearest)(skill, query, mask)
+        idx = jax.vmap(nearest)(self.memory_keys, self.memory_valid, self.memory_key_mask)
+        found = self.memory_next[skill, _select(idx, skill)]
         return consistent(obs, jnp.where(self.state_mask[skill], found, obs))
 
     def goal_from_param(self, skill: jax.Array, param: jax.Array, obs: jax.Array) -> jax.Array:
@@ -185,7 +188,9 @@ def _skill_env(name: str) -> BaxterEnv:
     if name not in SKILLS:
         raise ValueError(f"unknown skill {name!r}; valid: {', '.join(SKILLS)}")
     if name not in _ENV_CACHE:
-        _ENV_CACHE[name] = make(name)
+        # Possibly first asked for inside a jitted function: build the env's constants eagerly.
+        with jax.ensure_compile_time_eval():
+            _ENV_CACHE[name] = make(name)
     return _ENV_CACHE[name]
 
 

@@ -11,31 +11,12 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any
 
-import jax
-import jax.numpy as jnp
-
-from mjx_skills import ddpg as ddpg_agent
-from mjx_skills import her, rollout
-from mjx_skills.config import DDPGConfig, TrainConfig
-from mjx_skills.replay import ReplayState
-
-
-class Learner(NamedTuple):
-    """init(key) -> agent
-    explore(agent, aux, epoch) -> Behaviour     training behaviour (epoch: () int32, 0-based)
-    evaluate(agent, aux) -> Behaviour           deterministic evaluation behaviour
-    store(episodes, records) -> item            what the replay keeps per episode (batched)
-    update(agent, buffer, fresh, key) -> (agent, losses)
-        one cycle's learning on the buffer (which already holds `fresh`, this cycle's
-        stored items); losses are per-step arrays, averaged by the trainer."""
-
-    init: Callable[[jax.Array], Any]
-    explore: Callable[[Any, Any, jax.Array], rollout.Behaviour]
-    evaluate: Callable[[Any, Any], rollout.Behaviour]
-    store: Callable[[rollout.Episode, dict], Any]
-    update: Callable[[Any, ReplayState, Any, jax.Array], tuple[Any, dict[str, jax.Array]]]
+from mjx_skills.config import DDPGConfig, SearchConfig
+from mjx_skills.ddpg_her import make_ddpg_her
+from mjx_skills.learner import Learner
+from mjx_skills.sl import make_ddpg_her_sl
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,50 +28,17 @@ class Method:
     make_learner: Callable[..., Learner]
     """make_learner(env, train: TrainConfig, **options) -> Learner."""
     needs_library: bool = False
+    load_aux: Callable[[dict[str, Any]], Any] | None = None
+    """load_aux(options) -> the read-only input of the jitted epoch (the skill library)."""
 
 
-def make_ddpg_her(env: Any, train: TrainConfig, ddpg: DDPGConfig) -> Learner:
-    """Flat DDPG + HER: Gaussian / uniform exploration around the policy, HER relabelling."""
+def load_library(search: SearchConfig) -> Any:
+    """The library named by the search options (SL1, SL2, SL3) from its directory."""
+    from mjx_skills import library
 
-    def init(key: jax.Array) -> ddpg_agent.DDPGState:
-        return ddpg_agent.init(key, env.obs_dim, env.goal_dim, env.action_dim, ddpg)
-
-    def explore(agent, aux, epoch) -> rollout.Behaviour:
-        return rollout.stateless(lambda k, obs, goal: ddpg_agent.explore(agent, k, obs, goal, ddpg))
-
-    def evaluate(agent, aux) -> rollout.Behaviour:
-        return rollout.stateless(lambda k, obs, goal: ddpg_agent.act(agent, obs, goal, ddpg))
-
-    def update(agent, buffer, fresh: rollout.Episode, key):
-        return her_update(agent, buffer, fresh, key, env, train.updates_per_cycle, ddpg)
-
-    return Learner(init=init, explore=explore, evaluate=evaluate,
-                   store=lambda episodes, records: episodes, update=update)  # fmt: skip
-
-
-def her_update(
-    agent: ddpg_agent.DDPGState,
-    buffer: ReplayState,
-    fresh: rollout.Episode,
-    key: jax.Array,
-    env: Any,
-    n_updates: int,
-    config: DDPGConfig,
-) -> tuple[ddpg_agent.DDPGState, dict[str, jax.Array]]:
-    """Add the fresh episodes to the normalisers, then `n_updates` DDPG steps on hindsight-
-    relabelled batches. The buffer and normalisers are fixed during the steps, so all
-    batches are sampled and relabelled up front in a few large gathers."""
-    agent = ddpg_agent.observe(
-        agent,
-        fresh.obs.reshape(-1, env.obs_dim),
-        jnp.concatenate([fresh.g, fresh.ag], axis=1).reshape(-1, env.goal_dim),
-    )
-    b = config.batch_size
-    batch = her.sample_batch(
-        buffer, key, n_updates * b, env.compute_reward, config.her_strategy, config.relabel_prob
-    )
-    batches = jax.tree.map(lambda x: x.reshape(n_updates, b, *x.shape[1:]), batch)
-    return ddpg_agent.update(agent, batches, config)
+    full, _ = library.load(search.library_dir)
+    library.skill_envs(full.names)  # built now, not first inside a traced function
+    return library.subset(full, search.library)
 
 
 METHODS: dict[str, Method] = {
@@ -100,8 +48,17 @@ METHODS: dict[str, Method] = {
         options={"ddpg": DDPGConfig()},
         make_learner=make_ddpg_her,
     ),
+    "ddpg_her_sl": Method(
+        name="ddpg_her_sl",
+        description="DDPG + HER exploring with a look-ahead search over the skill library "
+        "(thesis ch. 5)",
+        options={"ddpg": DDPGConfig(), "search": SearchConfig()},
+        make_learner=make_ddpg_her_sl,
+        needs_library=True,
+        load_aux=lambda options: load_library(options["search"]),
+    ),
 }
-PLANNED = ("pas", "mpas", "ddpg_her_sl")
+PLANNED = ("pas", "mpas")
 """Methods of the thesis that need the skill library, not built yet."""
 
 

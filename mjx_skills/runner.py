@@ -103,17 +103,20 @@ def train_run(args: RunArgs, stop_after: int | None = None) -> Path:
 def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, Any]:
     """`train_run`, also returning the final carry (leading seed axis). Resuming a finished
     run trains nothing and returns its last checkpoint's carry."""
-    if args.resume:
-        run_dir = Path(args.resume)
+    run_dir = Path(args.resume) if args.resume else None
+    if run_dir is not None:
         args = load_config(run_dir)
-    else:
-        check_name(args.train.task)
-        args.full_options()  # unknown methods and option groups fail before any file is written
+    check_name(args.train.task)
+    options = args.full_options()  # unknown methods and option groups fail before any write
+    # Read-only method inputs (the skill library) enter the jitted epoch here, never donated;
+    # a missing library fails here too, before a run directory is made.
+    spec = methods.get(args.method)
+    aux = spec.load_aux(options) if spec.load_aux else None
+    if run_dir is None:
         run_dir = new_run_dir(args)
         save_config(run_dir, args)
     cfg = args.train
-    aux = None  # read-only method inputs (the skill library) enter here, never donated
-    env, _, epoch_fn, carry = build(args.method, cfg, args.env, args.full_options(), aux)
+    env, _, epoch_fn, carry = build(args.method, cfg, args.env, options, aux)
     checkpoints = Checkpoints(run_dir / "checkpoints")
     start = 0
     if args.resume and checkpoints.latest_epoch() is not None:

@@ -29,9 +29,9 @@ from tqdm.auto import tqdm
 
 from mjx_skills import compile_cache, fit, library, rollout
 from mjx_skills.config import DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
+from mjx_skills.ddpg_her import make_ddpg_her
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
 from mjx_skills.envs.registry import SKILLS
-from mjx_skills.methods import make_ddpg_her
 from mjx_skills.runner import RunArgs, train_and_keep
 
 TABLE = Path("experiments") / "results" / "table_5_1.csv"
@@ -137,10 +137,10 @@ def fit_library(names, agents, data, config: LibraryConfig, progress: bool):
     tick = lambda i, val: bar.update(1)
     dyn_tr, dyn_va = split(success.astype(np.float32), y_dyn)
     dyn, dyn_hist = fit.fit(dyn0, dyn_tr, dyn_va, fit.dynamics_loss(obs_dim, config.model_hidden),
-                            config.model_lr, config, keys[0], tick)  # fmt: skip
+                            config.model_lr, config, keys, tick)  # fmt: skip
     clf_tr, clf_va = split(np.ones((K, N), np.float32), success.astype(np.float32))
     clf, clf_hist = fit.fit(clf0, clf_tr, clf_va, fit.classifier_loss(config.classifier_hidden),
-                            config.classifier_lr, config, keys[1], tick)  # fmt: skip
+                            config.classifier_lr, config, jax.vmap(lambda k: jax.random.fold_in(k, 1))(keys), tick)  # fmt: skip
     bar.close()
     lib = _assemble(
         names, agents, dyn, clf, in_norm, d_norm, dims, x, s_T, success, N - n_val, config

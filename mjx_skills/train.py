@@ -19,7 +19,7 @@ from flax import struct
 
 from mjx_skills import methods, replay, rollout
 from mjx_skills.config import EnvConfig, TrainConfig
-from mjx_skills.methods import Learner
+from mjx_skills.learner import Learner
 
 
 @struct.dataclass

@@ -14,7 +14,8 @@ from flax import struct
 
 from mjx_skills import train
 from mjx_skills.config import DDPGConfig, TrainConfig
-from mjx_skills.methods import Learner, make_ddpg_her
+from mjx_skills.ddpg_her import make_ddpg_her
+from mjx_skills.learner import Learner
 from mjx_skills.rollout import Behaviour, Episode, example_episode, run_episodes
 
 HOLD = 3

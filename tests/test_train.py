@@ -9,8 +9,8 @@ import pytest
 
 from mjx_skills import train as train_mod
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
+from mjx_skills.ddpg_her import make_ddpg_her
 from mjx_skills.logging import read_metrics
-from mjx_skills.methods import make_ddpg_her
 from mjx_skills.runner import RunArgs, check_finite, load_config, train_run
 
 # A tiny budget: every code path of an epoch, compiled in seconds.

@@ -1,0 +1,58 @@
+"""Flat DDPG + HER as a method: the thesis's baseline 1, and the learner of DDPG+HER+SL."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from mjx_skills import ddpg as ddpg_agent
+from mjx_skills import her, rollout
+from mjx_skills.config import DDPGConfig, TrainConfig
+from mjx_skills.learner import Learner
+from mjx_skills.replay import ReplayState
+
+
+def make_ddpg_her(env: Any, train: TrainConfig, ddpg: DDPGConfig) -> Learner:
+    """Flat DDPG + HER: Gaussian / uniform exploration around the policy, HER relabelling."""
+
+    def init(key: jax.Array) -> ddpg_agent.DDPGState:
+        return ddpg_agent.init(key, env.obs_dim, env.goal_dim, env.action_dim, ddpg)
+
+    def explore(agent, aux, epoch) -> rollout.Behaviour:
+        return rollout.stateless(lambda k, obs, goal: ddpg_agent.explore(agent, k, obs, goal, ddpg))
+
+    def evaluate(agent, aux) -> rollout.Behaviour:
+        return rollout.stateless(lambda k, obs, goal: ddpg_agent.act(agent, obs, goal, ddpg))
+
+    def update(agent, buffer, fresh: rollout.Episode, key):
+        return her_update(agent, buffer, fresh, key, env, train.updates_per_cycle, ddpg)
+
+    return Learner(init=init, explore=explore, evaluate=evaluate,
+                   store=lambda episodes, records: episodes, update=update)  # fmt: skip
+
+
+def her_update(
+    agent: ddpg_agent.DDPGState,
+    buffer: ReplayState,
+    fresh: rollout.Episode,
+    key: jax.Array,
+    env: Any,
+    n_updates: int,
+    config: DDPGConfig,
+) -> tuple[ddpg_agent.DDPGState, dict[str, jax.Array]]:
+    """Add the fresh episodes to the normalisers, then `n_updates` DDPG steps on hindsight-
+    relabelled batches. The buffer and normalisers are fixed during the steps, so all
+    batches are sampled and relabelled up front in a few large gathers."""
+    agent = ddpg_agent.observe(
+        agent,
+        fresh.obs.reshape(-1, env.obs_dim),
+        jnp.concatenate([fresh.g, fresh.ag], axis=1).reshape(-1, env.goal_dim),
+    )
+    b = config.batch_size
+    batch = her.sample_batch(
+        buffer, key, n_updates * b, env.compute_reward, config.her_strategy, config.relabel_prob
+    )
+    batches = jax.tree.map(lambda x: x.reshape(n_updates, b, *x.shape[1:]), batch)
+    return ddpg_agent.update(agent, batches, config)

@@ -1,0 +1,27 @@
+"""The contract between a learning method and the one trainer (`train.py`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import jax
+
+from mjx_skills import rollout
+from mjx_skills.replay import ReplayState
+
+
+class Learner(NamedTuple):
+    """init(key) -> agent
+    explore(agent, aux, epoch) -> Behaviour     training behaviour (epoch: () int32, 0-based)
+    evaluate(agent, aux) -> Behaviour           deterministic evaluation behaviour
+    store(episodes, records) -> item            what the replay keeps per episode (batched)
+    update(agent, buffer, fresh, key) -> (agent, losses)
+        one cycle's learning on the buffer (which already holds `fresh`, this cycle's
+        stored items); losses are per-step arrays, averaged by the trainer."""
+
+    init: Callable[[jax.Array], Any]
+    explore: Callable[[Any, Any, jax.Array], rollout.Behaviour]
+    evaluate: Callable[[Any, Any], rollout.Behaviour]
+    store: Callable[[rollout.Episode, dict], Any]
+    update: Callable[[Any, ReplayState, Any, jax.Array], tuple[Any, dict[str, jax.Array]]]

@@ -1,0 +1,141 @@
+"""Look-ahead search over the skill library (thesis ch. 5): a fixed-shape tree per env.
+
+From the current state, every node samples `branching` (skill, goal) pairs: transfer only
+when the cube is held, else transit or grasp (restricted to the library in use); transit
+goals just above the object, grasp goals its lift height, transfer goals near the task
+goal. Each edge is scored in one batched call per level for all envs and nodes at once:
+the classifier's success probability (edges at or below `prune_below` are pruned), the
+skill's critic value Q^i(s, g, pi^i(s, g)), and the next state from the coarse model (or
+memory). A path's utility is U = sum_c gamma^c Q_c + gamma^C v(leaf); every node of the
+tree may end a path. The search returns the first (skill, goal) of the best path per env,
+and flags envs whose every first edge was pruned.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from mjx_skills.config import SearchConfig
+from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
+from mjx_skills.library import SkillLibrary
+
+
+@struct.dataclass
+class SearchResult:
+    skill: jax.Array
+    """(B,) int32 index into the library of the best path's first skill."""
+    goal: jax.Array
+    """(B, 3) its goal."""
+    all_pruned: jax.Array
+    """(B,) bool: no first edge survived the classifier (the caller falls back)."""
+    utility: jax.Array
+    """(B,) the best path's utility (-inf where all pruned)."""
+
+
+def sample_edges(
+    lib: SkillLibrary, cfg: SearchConfig, obs: jax.Array, task_goal: jax.Array, key: jax.Array
+) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """`cfg.branching` (skill, goal) pairs per state: obs (N, 25), task_goal (N, 3) ->
+    skill (N, b) int32, goal (N, b, 3), allowed (N, b) bool (False: no skill may act here)."""
+    n, b = obs.shape[0], cfg.branching
+    k_skill, k_noise, k_lift, k_height = jax.random.split(key, 4)
+    names = lib.names
+    held = lib.envs[0].grasped(obs)  # (N,)
+    is_transfer = jnp.array([name == "transfer" for name in names])
+    allowed = jnp.where(held[:, None], is_transfer[None], ~is_transfer[None])  # (N, K)
+    scores = jax.random.uniform(k_skill, (n, b, len(names)))
+    skill = jnp.argmax(jnp.where(allowed[:, None], scores, -1.0), axis=-1).astype(jnp.int32)
+    ok = jnp.take_along_axis(allowed, skill, axis=1)
+
+    obj = obs[:, None, OBS_OBJECT]
+    noise = jax.random.uniform(k_noise, (n, b, 3), minval=-1.0, maxval=1.0)
+    lo, hi = cfg.transit_height
+    height = jax.random.uniform(k_height, (n, b), minval=lo, maxval=hi)
+    candidates = {
+        "transit": obj
+        + jnp.concatenate([cfg.object_goal_noise * noise[..., :2], height[..., None]], axis=-1),
+        "transfer": task_goal[:, None] + cfg.transfer_goal_noise * noise,
+    }
+    if "grasp" in names:
+        grasp = lib.envs[names.index("grasp")]
+        lift = jax.random.uniform(k_lift, (n, b, 1), minval=-1.0, maxval=1.0)
+        candidates["grasp"] = grasp.goal_from_param(
+            lift, jnp.broadcast_to(obs[:, None], (n, b, obs.shape[-1]))
+        )
+    goals = jnp.stack([candidates[name] for name in names])  # (K, N, b, 3)
+    goal = jnp.take_along_axis(goals, skill[None, ..., None], axis=0)[0]
+    if "transfer" in names:
+        low, high = lib.envs[names.index("transfer")].object_goal_box()
+        goal = jnp.where((skill == names.index("transfer"))[..., None],
+                         jnp.clip(goal, low, high), goal)  # fmt: skip
+    return skill, goal, ok
+
+
+def leaf_value(cfg: SearchConfig, env: Any, obs: jax.Array, task_goal: jax.Array) -> jax.Array:
+    """v(leaf): (...) from predicted observations (..., 25) and task goals (..., 3)."""
+    achieved = obs[..., OBS_OBJECT] if env.goal_is_object else obs[..., OBS_GRIP]
+    if cfg.leaf_value == "reward":
+        return env.compute_reward(achieved, task_goal)
+    return -jnp.linalg.norm(achieved - task_goal, axis=-1) / env.threshold
+
+
+def search(
+    lib: SkillLibrary,
+    cfg: SearchConfig,
+    env: Any,
+    obs: jax.Array,
+    task_goal: jax.Array,
+    key: jax.Array,
+) -> SearchResult:
+    """The best first edge per env: obs (B, 25), task_goal (B, 3)."""
+    B, b = obs.shape[0], cfg.branching
+    next_fn = lib.next_state if cfg.lookahead_next == "model" else lib.recall
+    # Level state, one row per (env, node): start with the root.
+    states, alive = obs[:, None], jnp.ones((B, 1), bool)
+    path_u, disc = jnp.zeros((B, 1)), jnp.ones((B, 1))
+    first_skill, first_goal = jnp.zeros((B, 1), jnp.int32), jnp.zeros((B, 1, 3))
+    best_u, best_skill, best_goal = [], [], []
+    for level in range(cfg.height):
+        n = states.shape[1]
+        flat = states.reshape(B * n, -1)
+        goals_rep = jnp.repeat(task_goal, n, axis=0)
+        skill, goal, ok = sample_edges(lib, cfg, flat, goals_rep, jax.random.fold_in(key, level))
+        rows = B * n * b
+        s_rep = jnp.repeat(flat, b, axis=0)
+        sk, g = skill.reshape(rows), goal.reshape(rows, 3)
+        prob = lib.success_prob(sk, s_rep, g)
+        q = lib.q(sk, s_rep, g)
+        nxt = next_fn(sk, s_rep, g)
+        shape = (B, n * b)
+        valid = (
+            jnp.repeat(alive, b, axis=1)
+            & ok.reshape(shape)
+            & (prob.reshape(shape) > cfg.prune_below)
+        )
+        u = jnp.repeat(path_u, b, axis=1) + jnp.repeat(disc, b, axis=1) * q.reshape(shape)
+        disc = jnp.repeat(disc, b, axis=1) * cfg.gamma
+        states = nxt.reshape(B, n * b, -1)
+        leaf = u + disc * leaf_value(cfg, env, states, task_goal[:, None])
+        if level == 0:
+            first_skill, first_goal = skill.reshape(shape), goal.reshape(B, n * b, 3)
+        else:
+            first_skill = jnp.repeat(first_skill, b, axis=1)
+            first_goal = jnp.repeat(first_goal, b, axis=1)
+        best_u.append(jnp.where(valid, leaf, -jnp.inf))
+        best_skill.append(first_skill)
+        best_goal.append(first_goal)
+        alive, path_u = valid, u
+    u_all = jnp.concatenate(best_u, axis=1)
+    i = jnp.argmax(u_all, axis=1)
+    pick = lambda x: jnp.take_along_axis(x, i.reshape(B, 1, *[1] * (x.ndim - 2)), axis=1)[:, 0]
+    utility = pick(u_all)
+    return SearchResult(
+        skill=pick(jnp.concatenate(best_skill, axis=1)),
+        goal=pick(jnp.concatenate(best_goal, axis=1)),
+        all_pruned=~jnp.isfinite(utility),
+        utility=utility,
+    )

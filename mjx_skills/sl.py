@@ -1,0 +1,138 @@
+"""DDPG+HER+SL (thesis Algorithm 2): flat DDPG+HER whose exploration comes from a look-ahead
+search over the skill library.
+
+Per env the behaviour keeps (running skill, its goal, steps in it). Whenever an env has no
+running skill, or its skill terminated or ran `skill_steps` steps, it decides again: with
+probability eps it searches and follows the best first skill's library policy; otherwise
+(and when every edge was pruned) it acts with the learned policy plus noise. eps decays
+linearly over epochs. The replay stores the executed low-level actions, and the learner is
+DDPG+HER's, unchanged. `explorer="scripted"` puts the task's scripted controller in the
+search's place: the upper bound of what any explorer can give this learner.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from mjx_skills import ddpg, rollout, search
+from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
+from mjx_skills.ddpg_her import make_ddpg_her
+from mjx_skills.learner import Learner
+from mjx_skills.library import SkillLibrary
+
+
+@struct.dataclass
+class ExploreState:
+    active: jax.Array
+    """(B,) bool: a searched skill drives the env."""
+    skill: jax.Array
+    """(B,) int32 its index in the library."""
+    goal: jax.Array
+    """(B, 3) its goal."""
+    steps: jax.Array
+    """(B,) int32 steps it has run."""
+
+
+def epsilon(cfg: SearchConfig, epoch: jax.Array) -> jax.Array:
+    """Linear decay from eps_start at epoch 0 to eps_end at eps_decay_epochs."""
+    frac = jnp.clip(epoch / cfg.eps_decay_epochs, 0.0, 1.0)
+    return cfg.eps_start + frac * (cfg.eps_end - cfg.eps_start)
+
+
+def make_behaviour(
+    agent: ddpg.DDPGState,
+    lib: SkillLibrary,
+    epoch: jax.Array,
+    env: Any,
+    cfg: SearchConfig,
+    ddpg_config: DDPGConfig,
+) -> rollout.Behaviour:
+    eps = epsilon(cfg, epoch)
+
+    def init(key, n):
+        return ExploreState(active=jnp.zeros((n,), bool), skill=jnp.zeros((n,), jnp.int32),
+                            goal=jnp.zeros((n, 3)), steps=jnp.zeros((n,), jnp.int32))  # fmt: skip
+
+    def step(ps: ExploreState, key, state):
+        k_coin, k_search, k_noise = jax.random.split(key, 3)
+        obs, task_goal = state.obs, state.desired_goal
+        done = lib.terminated(ps.skill, obs, ps.goal) | (ps.steps >= cfg.skill_steps)
+        decide = ~ps.active | done
+        explore = decide & (jax.random.uniform(k_coin, ps.steps.shape) < eps)
+        # With the task already solved, the best plan is to do nothing: hold still, keeping
+        # the gripper as it is (searching again would move the cube off the goal).
+        held = env.grasped(obs)
+        solved = env.is_success(state.achieved_goal, task_goal)
+        hold = explore & solved
+        explore = explore & ~solved
+        # The search's cost is paid only at steps where some env decides to explore.
+        found = jax.lax.cond(
+            jnp.any(explore),
+            lambda: search.search(lib, cfg, env, obs, task_goal, k_search),
+            lambda: _no_search(obs.shape[0]),
+        )
+        start = explore & ~found.all_pruned
+        active = jnp.where(decide, start, ps.active)
+        skill = jnp.where(start, found.skill, ps.skill)
+        goal = jnp.where(start[:, None], found.goal, ps.goal)
+        steps = jnp.where(start, 0, ps.steps) + 1
+        own = ddpg.explore(agent, k_noise, obs, task_goal, ddpg_config)
+        action = jnp.where(active[:, None], lib.policy_action(skill, obs, goal), own)
+        still = jnp.concatenate(
+            [jnp.zeros_like(obs[:, :3]), jnp.where(held, -1.0, 1.0)[:, None]], -1
+        )
+        action = jnp.where(hold[:, None], still, action)
+        record = {
+            "skill_calls": start.astype(jnp.int32),
+            "skill_driven": active,
+            "holds": hold,
+            "searches": explore,
+            "all_pruned": explore & found.all_pruned,
+            "eps": jnp.broadcast_to(eps, active.shape),
+        }
+        return ExploreState(active=active, skill=skill, goal=goal, steps=steps), action, record
+
+    return rollout.Behaviour(init=init, step=step)
+
+
+def _no_search(n: int) -> search.SearchResult:
+    return search.SearchResult(skill=jnp.zeros((n,), jnp.int32), goal=jnp.zeros((n, 3)),
+                               all_pruned=jnp.ones((n,), bool), utility=jnp.full((n,), -jnp.inf))  # fmt: skip
+
+
+def make_scripted_behaviour(
+    agent: ddpg.DDPGState, epoch: jax.Array, env: Any, cfg: SearchConfig, ddpg_config: DDPGConfig
+) -> rollout.Behaviour:
+    """The oracle explorer: the scripted controller's action with probability eps per step,
+    else the learned policy plus noise."""
+    from mjx_skills.envs.controllers import make_scripted_policy
+
+    scripted = jax.vmap(make_scripted_policy(env))
+    eps = epsilon(cfg, epoch)
+
+    def policy(key, obs, goal):
+        k_coin, k_noise = jax.random.split(key)
+        use = jax.random.uniform(k_coin, obs.shape[:1]) < eps
+        own = ddpg.explore(agent, k_noise, obs, goal, ddpg_config)
+        return jnp.where(use[:, None], scripted(obs, goal), own)
+
+    return rollout.stateless(policy)
+
+
+def make_ddpg_her_sl(
+    env: Any, train: TrainConfig, ddpg: DDPGConfig, search: SearchConfig
+) -> Learner:
+    """DDPG+HER's learner with the look-ahead explorer; `aux` is the SkillLibrary. (The
+    parameters are named after the method's option groups, `--ddpg.*` and `--search.*`.)"""
+    base = make_ddpg_her(env, train, ddpg)
+
+    def explore(agent, lib, epoch):
+        if search.explorer == "scripted":
+            return make_scripted_behaviour(agent, epoch, env, search, ddpg)
+        return make_behaviour(agent, lib, epoch, env, search, ddpg)
+
+    return base._replace(explore=explore)

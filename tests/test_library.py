@@ -1,0 +1,187 @@
+"""The skill library's machinery on constructed data: vmapped fits, memories, batched skill
+functions, the artifact on disk (save, load, refusals)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import chex
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjx_skills import fit, library
+from mjx_skills.config import DDPGConfig, LibraryConfig
+from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL
+
+SMALL = LibraryConfig(model_hidden=(16, 16), classifier_hidden=(8,), fit_batch=32,
+                      fit_epochs=40, patience=100, samples=512)  # fmt: skip
+OBS, GOAL = 25, 3
+
+
+def synthetic(key, K=2, N=512):
+    """Inputs (K, N, .) with a known answer: y = W_k x (dynamics), label = x0 + x1 > 0."""
+    k_o, k_g, k_w = jax.random.split(key, 3)
+    o = jax.random.normal(k_o, (K, N, OBS))
+    g = jax.random.normal(k_g, (K, N, GOAL))
+    w = jax.random.normal(k_w, (K, OBS + GOAL, OBS)) / 5.0
+    y = jnp.einsum("kni,kio->kno", jnp.concatenate([o, g], -1), w)
+    label = (o[..., 0] + o[..., 1] > 0).astype(jnp.float32)
+    return o, g, y, label
+
+
+def split(o, g, y, dims, n_val=64):
+    w = jnp.ones(o.shape[:2])
+    part = lambda a, b: {"o": o[:, a:b], "g": g[:, a:b], "y": y[:, a:b], "w": w[:, a:b],
+                         "dims": dims}  # fmt: skip
+    return part(0, o.shape[1] - n_val), part(o.shape[1] - n_val, o.shape[1])
+
+
+@pytest.fixture(scope="module")
+def dynamics_fit():
+    o, g, y, _ = synthetic(jax.random.PRNGKey(0))
+    dims = jnp.ones((2, OBS))
+    train, val = split(o, g, y, dims)
+    keys = jax.random.split(jax.random.PRNGKey(1), 2)
+    params, _ = fit.init_models(keys, SMALL, OBS, GOAL)
+    loss = fit.dynamics_loss(OBS, SMALL.model_hidden)
+    best, history = fit.fit(params, train, val, loss, 3e-3, SMALL, keys)
+    return params, best, history, (train, val, loss, keys)
+
+
+def test_fit_drives_the_loss_down_on_a_known_answer(dynamics_fit):
+    _, _, history, _ = dynamics_fit
+    first, last = np.array(history[0]["val"]), np.array(history[-1]["val"])
+    assert np.all(last < 0.2 * first), (first, last)
+
+
+def test_vmapped_fit_equals_fitting_each_skill_alone(dynamics_fit):
+    params, best, _, (train, val, loss, keys) = dynamics_fit
+    config = dataclasses.replace(SMALL, fit_epochs=5)
+    stacked, _ = fit.fit(params, train, val, loss, 3e-3, config, keys)
+    for k in range(2):
+        one = lambda t, k=k: jax.tree.map(lambda x: x[k : k + 1], t)
+        alone, _ = fit.fit(one(params), one(train), one(val), loss, 3e-3, config, keys[k : k + 1])
+        chex.assert_trees_all_close(alone, one(stacked), rtol=1e-4, atol=1e-5)
+
+
+def test_classifier_fit_separates_a_known_boundary():
+    o, g, _, label = synthetic(jax.random.PRNGKey(2))
+    train, val = split(o, g, label, jnp.ones((2, OBS)))
+    keys = jax.random.split(jax.random.PRNGKey(3), 2)
+    _, params = fit.init_models(keys, SMALL, OBS, GOAL)
+    loss = fit.classifier_loss(SMALL.classifier_hidden)
+    best, _ = fit.fit(params, train, val, loss, 1e-2, SMALL, keys)
+    from mjx_skills.nets import SuccessClassifier
+
+    logits = jax.vmap(SuccessClassifier(SMALL.classifier_hidden).apply)(best, val["o"], val["g"])
+    for k in range(2):
+        assert fit.auc(np.asarray(logits[k]), np.asarray(val["y"][k])) > 0.97
+
+
+def test_auc_of_known_rankings():
+    assert fit.auc(np.array([0.1, 0.4, 0.35, 0.8]), np.array([0, 0, 1, 1])) == 0.75
+    assert fit.auc(np.array([0.5, 0.5]), np.array([0, 1])) == 0.5
+    assert np.isnan(fit.auc(np.array([0.5, 0.7]), np.array([1, 1])))
+
+
+def test_start_counts_split_the_runs():
+    assert fit.start_counts(1000, 1, 3, 0.5) == (250, 500, 250)
+    assert sum(fit.start_counts(999, 0, 3, 0.6)) == 999
+    assert fit.start_counts(10, 0, 1, 0.5) == (10,)
+
+
+# ---------------------------------------------------------------------- the pytree
+@pytest.fixture(scope="module")
+def constructed():
+    """A 2-skill library (transit, grasp) with random networks and known memories."""
+    names = ("transit", "grasp")
+    lib = library.empty_like(names, DDPGConfig(), SMALL, memory_size=4)
+    rng = np.random.default_rng(0)
+    keys = rng.normal(size=(2, 4, OBS + GOAL)).astype(np.float32)
+    nxt = rng.normal(size=(2, 4, OBS)).astype(np.float32)
+    state_mask = np.zeros((2, OBS), bool)
+    state_mask[0, :3] = True  # transit changes the grip only
+    state_mask[1, :] = True
+    key_mask = np.zeros((2, OBS + GOAL), bool)
+    key_mask[0, [0, 1, 2, 25, 26, 27]] = True
+    key_mask[1, :] = True
+    valid = np.array([[True, True, True, False], [True] * 4])
+    return lib.replace(memory_keys=jnp.asarray(keys), memory_next=jnp.asarray(nxt),
+                       state_mask=jnp.asarray(state_mask), memory_key_mask=jnp.asarray(key_mask),
+                       memory_valid=jnp.asarray(valid))  # fmt: skip
+
+
+def test_recall_returns_the_exact_neighbour_over_the_skills_own_dimensions(constructed):
+    lib = constructed
+    stored = np.asarray(lib.memory_keys)
+    query = stored[0, 1].copy()
+    query[3:25] += 50.0  # dimensions transit does not compare: far off, and ignored
+    obs, goal = jnp.asarray(query[None, :OBS]), jnp.asarray(query[None, OBS:])
+    got = np.asarray(lib.recall(jnp.array([0]), obs, goal))[0]
+    want = np.asarray(lib.memory_next[0, 1])
+    np.testing.assert_allclose(got[OBS_GRIP], want[OBS_GRIP], rtol=1e-6)
+    # What transit does not change is copied from the query, and object - grip recomputed.
+    np.testing.assert_allclose(got[OBS_OBJECT], query[OBS_OBJECT], rtol=1e-6)
+    np.testing.assert_allclose(got[OBS_REL], query[OBS_OBJECT] - want[OBS_GRIP], rtol=1e-5)
+    # An invalid slot is never returned, even when it is the nearest.
+    near_invalid = stored[0, 3]
+    got = lib.recall(jnp.array([0]), jnp.asarray(near_invalid[None, :OBS]),
+                     jnp.asarray(near_invalid[None, OBS:]))  # fmt: skip
+    assert not np.allclose(np.asarray(got)[0, :3], np.asarray(lib.memory_next[0, 3, :3]))
+
+
+def test_each_env_runs_its_own_skill(constructed):
+    lib = constructed
+    rng = np.random.default_rng(1)
+    obs = jnp.asarray(rng.normal(size=(4, OBS)).astype(np.float32))
+    goal = jnp.asarray(rng.normal(size=(4, GOAL)).astype(np.float32))
+    skill = jnp.array([0, 1, 1, 0])
+    batched = lib.policy_action(skill, obs, goal)
+    probs = lib.success_prob(skill, obs, goal)
+    param = jnp.asarray(rng.uniform(-1, 1, size=(4, 3)).astype(np.float32))
+    goals = lib.goal_from_param(skill, param, obs)
+    for i, k in enumerate(np.asarray(skill)):
+        one = jnp.full((1,), k)
+        np.testing.assert_allclose(
+            batched[i], lib.policy_action(one, obs[i : i + 1], goal[i : i + 1])[0], atol=1e-5
+        )
+        np.testing.assert_allclose(
+            probs[i], lib.success_prob(one, obs[i : i + 1], goal[i : i + 1])[0], atol=1e-5
+        )
+        env = lib.envs[k]
+        np.testing.assert_allclose(
+            goals[i], env.goal_from_param(param[i, : env.param_dim], obs[i]), atol=1e-6
+        )
+    assert not np.allclose(batched[0], lib.policy_action(jnp.array([1]), obs[:1], goal[:1])[0])
+
+
+def test_reduced_libraries_by_name(constructed):
+    with pytest.raises(ValueError, match="valid: SL1, SL2, SL3"):
+        library.library_skills("SL9")
+    full = library.empty_like(library.LIBRARIES["SL1"], DDPGConfig(), SMALL, memory_size=2)
+    sl3 = library.subset(full, "SL3")
+    assert sl3.names == ("transit", "transfer") and sl3.memory_keys.shape[0] == 2
+    with pytest.raises(ValueError, match="this library has: transit, grasp"):
+        constructed.index("transfer")
+
+
+# ---------------------------------------------------------------------- on disk
+def test_save_load_round_trip_and_refusals(constructed, tmp_path):
+    path = library.save(constructed, tmp_path / "lib", {"memory_size": 4, "note": "test"})
+    loaded, manifest = library.load(path)
+    assert loaded.names == constructed.names and manifest["note"] == "test"
+    chex.assert_trees_all_equal(loaded, constructed)
+    with pytest.raises(FileExistsError, match="never overwritten"):
+        library.save(constructed, path, {"memory_size": 4})
+    with pytest.raises(FileNotFoundError, match="make skills"):
+        library.load(tmp_path / "missing")
+    raw = json.loads((path / "manifest.json").read_text())
+    (path / "manifest.json").write_text(json.dumps({**raw, "format": 0}))
+    with pytest.raises(ValueError, match="rebuild"):
+        library.load(path)
+    (path / "manifest.json").unlink()
+    with pytest.raises(ValueError, match="half-written"):
+        library.load(path)

@@ -1,0 +1,167 @@
+"""The look-ahead search and the exploring behaviour, with a hand-built library whose
+classifier, critic and coarse model are known functions."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from flax import struct
+
+from mjx_skills import search, sl
+from mjx_skills.config import DDPGConfig, SearchConfig
+from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
+from mjx_skills.library import consistent, skill_envs
+
+NAMES = ("transit", "grasp", "transfer")
+
+
+@struct.dataclass
+class EnvState:
+    """What the behaviour reads of the batched env state."""
+
+    obs: jax.Array
+    desired_goal: jax.Array
+
+
+@dataclasses.dataclass(frozen=True)
+class KnownLibrary:
+    """Critic: minus the goal's x (so goals at small x are best); classifier: 1 unless the
+    skill is in `pruned`; model: the grip (and, for transfer, the cube) lands on the goal."""
+
+    pruned: tuple[int, ...] = ()
+    names: tuple[str, ...] = NAMES
+
+    @property
+    def envs(self):
+        return skill_envs(self.names)
+
+    def success_prob(self, skill, obs, goal):
+        bad = jnp.isin(skill, jnp.array(self.pruned or (-1,)))
+        return jnp.where(bad, 0.0, 1.0)
+
+    def q(self, skill, obs, goal):
+        return -goal[:, 0]
+
+    def next_state(self, skill, obs, goal):
+        moved = obs.at[:, OBS_GRIP].set(goal)
+        carry = (skill == self.names.index("transfer"))[:, None]
+        moved = moved.at[:, OBS_OBJECT].set(jnp.where(carry, goal, obs[:, OBS_OBJECT]))
+        return consistent(obs, moved)
+
+    recall = next_state
+
+    def terminated(self, skill, obs, goal):
+        return jnp.zeros(skill.shape, bool)
+
+    def policy_action(self, skill, obs, goal):
+        return jnp.full((obs.shape[0], 4), 0.5)
+
+
+def states(n: int, held: bool) -> tuple[jax.Array, jax.Array]:
+    """Observations with the cube on the table (or in the fingers) and task goals."""
+    rng = np.random.default_rng(0)
+    obs = np.zeros((n, 25), np.float32)
+    obs[:, OBS_GRIP] = rng.uniform([0.55, -0.4, 0.1], [0.8, 0.0, 0.2], (n, 3))
+    obs[:, OBS_OBJECT] = (
+        obs[:, OBS_GRIP] if held else rng.uniform([0.55, -0.4, 0.04], [0.8, 0.0, 0.04], (n, 3))
+    )
+    obs[:, 9:11] = 0.012 if held else 0.02  # fingers closed on the cube / open
+    goal = rng.uniform([0.55, -0.4, 0.05], [0.8, 0.0, 0.2], (n, 3)).astype(np.float32)
+    return consistent(jnp.asarray(obs), jnp.asarray(obs)), jnp.asarray(goal)
+
+
+@pytest.fixture(scope="module")
+def env():
+    return skill_envs(("transfer",))[0]
+
+
+def test_one_level_search_returns_the_known_best_edge(env):
+    cfg = SearchConfig(height=1, branching=6)
+    lib = KnownLibrary()
+    obs, goal = states(8, held=False)
+    key = jax.random.PRNGKey(3)
+    found = jax.jit(lambda o, g: search.search(lib, cfg, env, o, g, key))(obs, goal)
+    skill, goals, ok = search.sample_edges(lib, cfg, obs, goal, jax.random.fold_in(key, 0))
+    nxt = jax.vmap(lambda s, g: lib.next_state(s, obs, g), in_axes=(1, 1), out_axes=1)(skill, goals)
+    utility = -goals[..., 0] + cfg.gamma * search.leaf_value(cfg, env, nxt, goal[:, None])
+    best = np.argmax(np.where(ok, utility, -np.inf), axis=1)
+    np.testing.assert_array_equal(
+        found.skill, np.take_along_axis(np.asarray(skill), best[:, None], 1)[:, 0]
+    )
+    np.testing.assert_allclose(
+        found.goal, np.take_along_axis(np.asarray(goals), best[:, None, None], 1)[:, 0]
+    )
+    assert not np.any(found.all_pruned)
+
+
+def test_skills_follow_the_grasp_state_and_pruned_edges_are_never_chosen(env):
+    cfg = SearchConfig()
+    run = jax.jit(lambda lib, o, g, k: search.search(lib, cfg, env, o, g, k), static_argnums=0)
+    free, goal = states(32, held=False)
+    held, _ = states(32, held=True)
+    for seed in range(3):
+        key = jax.random.PRNGKey(seed)
+        # The cube on the table: transit or grasp first; with grasp pruned, always transit.
+        first = np.asarray(run(KnownLibrary(), free, goal, key).skill)
+        assert set(first) <= {0, 1}
+        assert set(np.asarray(run(KnownLibrary(pruned=(1,)), free, goal, key).skill)) == {0}
+        # The cube held: only transfer.
+        assert set(np.asarray(run(KnownLibrary(), held, goal, key).skill)) == {2}
+
+
+def test_an_all_pruned_tree_says_so_and_the_policy_acts(env):
+    cfg = SearchConfig(eps_start=1.0, eps_end=1.0)
+    lib = KnownLibrary(pruned=(0, 1, 2))
+    obs, goal = states(6, held=False)
+    found = search.search(lib, cfg, env, obs, goal, jax.random.PRNGKey(0))
+    assert np.all(found.all_pruned) and np.all(np.isneginf(found.utility))
+    from mjx_skills import ddpg
+
+    agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
+    beh = sl.make_behaviour(agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig())
+    state = EnvState(obs=obs, desired_goal=goal)
+    ps, action, record = beh.step(beh.init(jax.random.PRNGKey(2), 6), jax.random.PRNGKey(3), state)
+    assert (
+        not np.any(ps.active) and np.all(record["all_pruned"]) and not np.any(record["skill_calls"])
+    )
+    assert not np.allclose(action, 0.5)  # the learned policy's noisy action, not a skill's
+
+
+def test_the_behaviour_commits_for_at_most_w_steps_and_follows_eps(env):
+    from mjx_skills import ddpg
+
+    agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
+    obs, goal = states(256, held=False)
+    state = EnvState(obs=obs, desired_goal=goal)
+    for eps, w in ((1.0, 3), (0.3, 4)):
+        cfg = SearchConfig(eps_start=eps, eps_end=eps, skill_steps=w)
+        beh = sl.make_behaviour(
+            agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg, DDPGConfig()
+        )
+        step = jax.jit(beh.step)
+        ps = beh.init(jax.random.PRNGKey(0), 256)
+        calls, driven = [], []
+        for t in range(12):
+            ps, _, record = step(ps, jax.random.PRNGKey(100 + t), state)
+            calls.append(np.asarray(record["skill_calls"]))
+            driven.append(np.asarray(record["skill_driven"]))
+            assert np.all(np.asarray(ps.steps)[np.asarray(ps.active)] <= w)
+        calls = np.array(calls)
+        if eps == 1.0:  # a skill at once, replaced exactly every w steps
+            np.testing.assert_array_equal(calls[::w], 1)
+            assert calls.sum() == 256 * len(range(0, 12, w))
+        else:  # a decision starts a skill with probability eps (5 sigma)
+            decisions = calls.sum() + (~np.array(driven)).sum()
+            share = calls.sum() / decisions
+            assert abs(share - eps) < 5 * np.sqrt(eps * (1 - eps) / decisions), share
+
+
+def test_epsilon_decays_linearly():
+    cfg = SearchConfig(eps_start=1.0, eps_end=0.001, eps_decay_epochs=30)
+    np.testing.assert_allclose(
+        sl.epsilon(cfg, jnp.array([0, 15, 30, 60])), [1.0, 0.5005, 0.001, 0.001], rtol=1e-5
+    )
