@@ -56,20 +56,24 @@ def test_transfer_without_the_cube_in_hand_is_refused(built):
     assert np.mean(prob < 0.5) >= 0.9, prob
 
 
-def test_grasp_from_30_cm_away_is_refused(built):
+def test_grasp_classifier_agrees_with_the_skill_far_from_the_cube(built):
+    """The thesis's grasp fails from 30 cm away, so its classifier must refuse it there. Our
+    grasp policy reaches the cube first (it succeeds from ~3/4 of such starts within its 20
+    steps), so the honest check is that the classifier predicts what the skill then does."""
+    from mjx_skills import fit
+    from mjx_skills.config import DDPGConfig
+
     lib, _ = built
-    obs = _starts("grasp", 64)  # next to the cube: most grasps succeed ...
     k = lib.index("grasp")
-    ids = jnp.full((64,), k)
-    param = jax.random.uniform(jax.random.PRNGKey(6), (64, 3), minval=-1, maxval=1)
-    near = np.asarray(lib.success_prob(ids, obs, lib.goal_from_param(ids, param, obs)))
-    # ... 30 cm away (toward the table's middle) they do not.
-    away = jnp.sign(-0.2 - obs[:, OBS_OBJECT.start + 1]) * 0.3
-    far = obs.at[:, OBS_GRIP.start + 1].set(obs[:, OBS_OBJECT.start + 1] + away)
-    far = library.consistent(far, far)
-    prob = np.asarray(lib.success_prob(ids, far, lib.goal_from_param(ids, param, far)))
-    assert np.mean(prob < 0.5) >= 0.9, prob
-    assert np.mean(near > 0.5) >= 0.7, near
+    transit, grasp = library.skill_envs(("transit", "grasp"))
+    agent = jax.tree.map(lambda x: x[k], lib.policy)
+    collect = jax.jit(fit.make_collect(grasp, (transit,), (256,), DDPGConfig()))
+    runs = collect(agent, jax.random.PRNGKey(3))  # gripper anywhere, cube on the table
+    s0 = np.asarray(runs["s0"])
+    far = np.linalg.norm(s0[:, OBS_OBJECT][:, :2] - s0[:, OBS_GRIP][:, :2], axis=-1) > 0.25
+    prob = np.asarray(lib.success_prob(jnp.full((256,), k), runs["s0"], runs["goal"]))
+    agree = (prob[far] > 0.5) == np.asarray(runs["success"])[far]
+    assert far.sum() >= 50 and agree.mean() >= 0.8, (far.sum(), agree.mean())
 
 
 def test_manifest_reports_models_and_samples(built):
