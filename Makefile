@@ -18,7 +18,7 @@ setup: $(STAMP)
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev,notebook]'
+	PYTHONWARNINGS=ignore $(BIN)/pip install --quiet -e '.[dev,notebook]'
 	touch $(STAMP)
 
 # DDPG+HER+SL by default; it builds the skill library first if there is none.
