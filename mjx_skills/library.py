@@ -27,7 +27,7 @@ from flax import struct
 
 from mjx_skills import __version__, ddpg
 from mjx_skills.config import DDPGConfig, LibraryConfig, from_dict
-from mjx_skills.envs.baxter import BaxterEnv
+from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, BaxterEnv
 from mjx_skills.envs.registry import SKILLS, make
 from mjx_skills.nets import CoarseDynamics, SuccessClassifier
 
@@ -171,8 +171,6 @@ def _select(stacked: jax.Array, skill: jax.Array) -> jax.Array:
 
 def consistent(start: jax.Array, predicted: jax.Array) -> jax.Array:
     """Recompute the derived part of a predicted observation (object minus grip)."""
-    from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL
-
     rel = predicted[..., OBS_OBJECT] - predicted[..., OBS_GRIP]
     return predicted.at[..., OBS_REL].set(rel)
 

@@ -164,6 +164,8 @@ def build(
 
 
 if __name__ == "__main__":
-    from mjx_skills.cli import main
+    # `python -m mjx_skills.train ...` runs the command line; run by name, so that importing
+    # this module never imports cli (which imports it: the arrows run train <- runner <- cli).
+    import runpy
 
-    main()
+    runpy.run_module("mjx_skills.cli", run_name="__main__")
