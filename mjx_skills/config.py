@@ -304,3 +304,32 @@ class SearchConfig:
         for name in ("object_goal_noise", "transfer_goal_noise"):
             _check(getattr(self, name) >= 0, name, "must be >= 0")
         _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")
+
+
+@dataclasses.dataclass(frozen=True)
+class PASConfig:
+    """PAS / MPAS: a parameterized-action-space meta-controller over the skill library
+    (thesis ch. 4). Its DDPG hyperparameters are the `--ddpg.*` group."""
+
+    library: Literal["SL1", "SL2", "SL3"] = "SL1"
+    """Skills the meta-controller chooses from (as for DDPG+HER+SL)."""
+    library_dir: str = "experiments/skill_library"
+    """Where the built library is (`make skills` writes it there)."""
+    hindsight: bool = False
+    """Relabel meta transitions with the achieved goal at the end of a later meta step of
+    the same episode (MPAS, approach 1); off: the task's own goal only (PAS, baseline 2)."""
+    relabel_prob: float = 0.8
+    """Share of sampled meta transitions relabelled when `hindsight` is on."""
+    skill_steps: int = 20
+    """A chosen skill runs until its `terminated` predicate holds or for this many env
+    steps (the skills' own training horizon), then the meta-controller chooses again."""
+    updates_per_cycle: int = 40
+    """Gradient steps of the meta-controller per cycle. A cycle's 4 episodes hold about 20
+    meta transitions, not DDPG+HER's 200 transitions: 40 steps (the HER code's per-cycle
+    count) instead of the trainer's 100."""
+
+    def __post_init__(self) -> None:
+        _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")
+        _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
+        for name in ("skill_steps", "updates_per_cycle"):
+            _check(getattr(self, name) >= 1, name, "must be >= 1")

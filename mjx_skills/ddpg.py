@@ -33,10 +33,15 @@ class DDPGState:
     """() int32 number of `update` calls."""
     act_dim: int = struct.field(pytree_node=False)
     """Action dimension, static: the actor module needs it to be rebuilt."""
+    bounds: str = struct.field(pytree_node=False, default="tanh")
+    """How actions stay in [-1, 1]: 'tanh' squashes the actor's output; 'invert' keeps it
+    linear and inverts the critic's gradients at the bounds (Hausknecht & Stone 2016, the
+    parameterized-action actor of PAS), clipping it wherever an action is used."""
 
 
-def _actor(act_dim: int, config: DDPGConfig) -> Actor:
-    return Actor(act_dim=act_dim, hidden=tuple(config.hidden), layer_norm=config.layer_norm)
+def _actor(state: DDPGState, config: DDPGConfig) -> Actor:
+    return Actor(act_dim=state.act_dim, hidden=tuple(config.hidden),
+                 layer_norm=config.layer_norm, squash=state.bounds == "tanh")  # fmt: skip
 
 
 def _critic(config: DDPGConfig) -> Critic:
@@ -51,15 +56,27 @@ def _critic_opt(config: DDPGConfig) -> optax.GradientTransformation:
     return optax.adam(config.critic_lr)
 
 
+BOUNDS = ("tanh", "invert")
+
+
 def init(
-    key: jax.Array, obs_dim: int, goal_dim: int, act_dim: int, config: DDPGConfig
+    key: jax.Array,
+    obs_dim: int,
+    goal_dim: int,
+    act_dim: int,
+    config: DDPGConfig,
+    bounds: str = "tanh",
 ) -> DDPGState:
     """Fresh networks (targets equal to the online ones), Adam states, empty normalisers."""
+    if bounds not in BOUNDS:
+        raise ValueError(f"unknown action bounds {bounds!r}; valid: {', '.join(BOUNDS)}")
     k_actor, k_critic = jax.random.split(key)
     obs = jnp.zeros((1, obs_dim), jnp.float32)
     goal = jnp.zeros((1, goal_dim), jnp.float32)
     action = jnp.zeros((1, act_dim), jnp.float32)
-    actor_params = _actor(act_dim, config).init(k_actor, obs, goal)
+    actor = Actor(act_dim=act_dim, hidden=tuple(config.hidden), layer_norm=config.layer_norm,
+                  squash=bounds == "tanh")  # fmt: skip
+    actor_params = actor.init(k_actor, obs, goal)
     critic_params = _critic(config).init(k_critic, obs, goal, action)
     return DDPGState(
         actor_params=actor_params,
@@ -72,6 +89,7 @@ def init(
         goal_norm=normalizer.init(goal_dim),
         steps=jnp.zeros((), jnp.int32),
         act_dim=act_dim,
+        bounds=bounds,
     )
 
 
@@ -86,7 +104,20 @@ def _norm_inputs(
 def act(state: DDPGState, obs: jax.Array, goal: jax.Array, config: DDPGConfig) -> jax.Array:
     """Deterministic policy: (..., obs_dim), (..., goal_dim) -> (..., act_dim) in [-1, 1]."""
     o, g = _norm_inputs(state, obs, goal, config)
-    return _actor(state.act_dim, config).apply(state.actor_params, o, g)
+    return _bounded(state, _actor(state, config).apply(state.actor_params, o, g))
+
+
+def _bounded(state: DDPGState, action: jax.Array) -> jax.Array:
+    # A tanh output is in range already (and stays bit for bit what it was).
+    return action if state.bounds == "tanh" else jnp.clip(action, -1.0, 1.0)
+
+
+def invert_gradients(grad: jax.Array, action: jax.Array) -> jax.Array:
+    """dQ/da scaled by the room left towards the bound it points to, for actions bounded by
+    [-1, 1]: (1 - a) / 2 when it pushes up, (a + 1) / 2 when down. Past a bound the factor
+    turns negative, so the step points back inside (Hausknecht & Stone 2016, eq. 5)."""
+    up = grad > 0
+    return grad * jnp.where(up, (1.0 - action) / 2.0, (action + 1.0) / 2.0)
 
 
 def explore(
@@ -131,7 +162,7 @@ def _normalize_batch(
 
 def _td_target(state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig) -> jax.Array:
     o2, g = nbatch["next_obs"], nbatch["goal"]
-    a2 = _actor(state.act_dim, config).apply(state.target_actor_params, o2, g)
+    a2 = _bounded(state, _actor(state, config).apply(state.target_actor_params, o2, g))
     q2 = _critic(config).apply(state.target_critic_params, o2, g, a2)
     reward = nbatch["reward"]
     if reward.shape != q2.shape:  # (B, 1) rewards would silently broadcast to (B, B)
@@ -167,7 +198,7 @@ def update(
 def _step(
     state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig
 ) -> tuple[DDPGState, dict[str, jax.Array]]:
-    actor, critic = _actor(state.act_dim, config), _critic(config)
+    actor, critic = _actor(state, config), _critic(config)
     o, g, action = nbatch["obs"], nbatch["goal"], nbatch["action"]
     y = _td_target(state, nbatch, config)
 
@@ -181,6 +212,14 @@ def _step(
 
     def actor_loss_fn(params: Params) -> tuple[jax.Array, None]:
         pi = actor.apply(params, o, g)
+        if state.bounds == "invert":
+            # Ascend the inverted dQ/da through the actor: the surrogate's gradient is
+            # -dQ/da' . dpi/dtheta, its value is reported as -Q.
+            q_of = lambda a: jnp.sum(critic.apply(critic_params, o, g, a))
+            a = jax.lax.stop_gradient(pi)
+            dq = invert_gradients(jax.grad(q_of)(a), a) / a.shape[0]
+            surrogate = -jnp.sum(dq * pi)
+            return surrogate - jax.lax.stop_gradient(surrogate + q_of(a) / a.shape[0]), None
         q_pi = critic.apply(critic_params, o, g, pi)
         # The L2 term keeps actions off tanh's flat saturated tails.
         return -jnp.mean(q_pi) + config.action_l2 * jnp.mean(pi**2), None

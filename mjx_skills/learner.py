@@ -6,6 +6,7 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import jax
+import jax.numpy as jnp
 
 from mjx_skills import rollout
 from mjx_skills.replay import ReplayState
@@ -18,10 +19,18 @@ class Learner(NamedTuple):
     store(episodes, records) -> item            what the replay keeps per episode (batched)
     update(agent, buffer, fresh, key) -> (agent, losses)
         one cycle's learning on the buffer (which already holds `fresh`, this cycle's
-        stored items); losses are per-step arrays, averaged by the trainer."""
+        stored items); losses are per-step arrays, averaged by the trainer.
+    summarize(records) -> metrics                the behaviour's records (n, T, ...) of a
+        cycle -> scalars logged as explore_*; default: the mean of each record."""
 
     init: Callable[[jax.Array], Any]
     explore: Callable[[Any, Any, jax.Array], rollout.Behaviour]
     evaluate: Callable[[Any, Any], rollout.Behaviour]
     store: Callable[[rollout.Episode, dict], Any]
     update: Callable[[Any, ReplayState, Any, jax.Array], tuple[Any, dict[str, jax.Array]]]
+    summarize: Callable[[dict[str, jax.Array]], dict[str, jax.Array]] | None = None
+
+
+def mean_records(records: dict[str, jax.Array]) -> dict[str, jax.Array]:
+    """Each record's mean over envs and steps (a share, for boolean records)."""
+    return {k: jnp.mean(v.astype(jnp.float32)) for k, v in records.items()}

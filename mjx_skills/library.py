@@ -163,6 +163,21 @@ class SkillLibrary:
         done = jnp.stack([env.terminated(obs, goal) for env in self.envs])
         return _select(done, skill)
 
+    def reached(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """Whether each env's skill is at its goal (its own success predicate): (B,) bool."""
+        at = jnp.stack([
+            env.is_success(obs[..., OBS_OBJECT] if env.goal_is_object else obs[..., OBS_GRIP], goal)
+            for env in self.envs
+        ])  # fmt: skip
+        return _select(at, skill)
+
+    def allowed(self, obs: jax.Array) -> jax.Array:
+        """(..., K) bool: the skills that may start here. Transfer needs the cube in hand;
+        transit and grasp need an empty gripper (the skills' start conditions)."""
+        held = self.envs[0].grasped(obs)
+        is_transfer = jnp.array([name == "transfer" for name in self.names])
+        return jnp.where(held[..., None], is_transfer, ~is_transfer)
+
 
 def _select(stacked: jax.Array, skill: jax.Array) -> jax.Array:
     """stacked (K, B, ...), skill (B,) -> (B, ...): row skill[b] for env b."""

@@ -13,9 +13,10 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any
 
-from mjx_skills.config import DDPGConfig, SearchConfig
+from mjx_skills.config import DDPGConfig, PASConfig, SearchConfig
 from mjx_skills.ddpg_her import make_ddpg_her
 from mjx_skills.learner import Learner
+from mjx_skills.pas import make_pas
 from mjx_skills.sl import make_ddpg_her_sl
 
 
@@ -32,13 +33,13 @@ class Method:
     """load_aux(options) -> the read-only input of the jitted epoch (the skill library)."""
 
 
-def load_library(search: SearchConfig) -> Any:
-    """The library named by the search options (SL1, SL2, SL3) from its directory."""
+def load_library(group: SearchConfig | PASConfig) -> Any:
+    """The library an option group names (`library`: SL1, SL2, SL3; `library_dir`)."""
     from mjx_skills import library
 
-    full, _ = library.load(search.library_dir)
+    full, _ = library.load(group.library_dir)
     library.skill_envs(full.names)  # built now, not first inside a traced function
-    return library.subset(full, search.library)
+    return library.subset(full, group.library)
 
 
 METHODS: dict[str, Method] = {
@@ -57,20 +58,29 @@ METHODS: dict[str, Method] = {
         needs_library=True,
         load_aux=lambda options: load_library(options["search"]),
     ),
+    "pas": Method(
+        name="pas",
+        description="parameterized-action-space DDPG meta-controller over the skill library, "
+        "no hindsight (thesis baseline 2)",
+        options={"ddpg": DDPGConfig(), "pas": PASConfig(hindsight=False)},
+        make_learner=make_pas,
+        needs_library=True,
+        load_aux=lambda options: load_library(options["pas"]),
+    ),
+    "mpas": Method(
+        name="mpas",
+        description="multi-goal PAS: the meta-controller with hindsight relabelling at the "
+        "skill level (thesis approach 1, ch. 4)",
+        options={"ddpg": DDPGConfig(), "pas": PASConfig(hindsight=True)},
+        make_learner=make_pas,
+        needs_library=True,
+        load_aux=lambda options: load_library(options["pas"]),
+    ),
 }
-PLANNED = ("pas", "mpas")
-"""Methods of the thesis that need the skill library, not built yet."""
 
 
 def get(name: str) -> Method:
     """The registered method `name`; a clear error naming the valid ones otherwise."""
     if name in METHODS:
         return METHODS[name]
-    if name in PLANNED:
-        raise NotImplementedError(
-            f"method {name!r} needs the skill library, not built yet; available: "
-            + ", ".join(METHODS)
-        )
-    raise ValueError(
-        f"unknown method {name!r}; valid: {', '.join(METHODS)} (planned: {', '.join(PLANNED)})"
-    )
+    raise ValueError(f"unknown method {name!r}; valid: {', '.join(METHODS)}")

@@ -30,16 +30,19 @@ class MLP(nn.Module):
 
 
 class Actor(nn.Module):
-    """pi(obs, goal): (..., obs_dim), (..., goal_dim) -> (..., act_dim) in [-1, 1]."""
+    """pi(obs, goal): (..., obs_dim), (..., goal_dim) -> (..., act_dim), squashed into
+    [-1, 1] by tanh, or linear (`squash=False`: bounds kept by inverting gradients)."""
 
     act_dim: int
     hidden: tuple[int, ...] = (64, 64, 64)
     layer_norm: bool = True
+    squash: bool = True
 
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
         x = jnp.concatenate([obs, goal], axis=-1)
-        return jnp.tanh(MLP(self.hidden, self.layer_norm, self.act_dim)(x))
+        out = MLP(self.hidden, self.layer_norm, self.act_dim)(x)
+        return jnp.tanh(out) if self.squash else out
 
 
 class Critic(nn.Module):

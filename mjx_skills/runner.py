@@ -24,7 +24,7 @@ from mjx_skills.checkpoint import Checkpoints
 from mjx_skills.config import EnvConfig, TrainConfig, from_dict
 from mjx_skills.envs.registry import check_name
 from mjx_skills.logging import MetricsWriter, progress_bar
-from mjx_skills.train import build
+from mjx_skills.train import build, committed
 
 
 @dataclasses.dataclass(frozen=True)
@@ -121,6 +121,7 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     start = 0
     if args.resume and checkpoints.latest_epoch() is not None:
         start, carry = checkpoints.restore(carry)
+        carry = committed(carry)
     writer = MetricsWriter(run_dir, resume_from_epoch=start)
     steps_per_epoch = cfg.envs * cfg.cycles * env.episode_length
     bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{args.method}")

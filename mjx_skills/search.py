@@ -44,9 +44,7 @@ def sample_edges(
     n, b = obs.shape[0], cfg.branching
     k_skill, k_noise, k_lift, k_height = jax.random.split(key, 4)
     names = lib.names
-    held = lib.envs[0].grasped(obs)  # (N,)
-    is_transfer = jnp.array([name == "transfer" for name in names])
-    allowed = jnp.where(held[:, None], is_transfer[None], ~is_transfer[None])  # (N, K)
+    allowed = lib.allowed(obs)  # (N, K)
     scores = jax.random.uniform(k_skill, (n, b, len(names)))
     skill = jnp.argmax(jnp.where(allowed[:, None], scores, -1.0), axis=-1).astype(jnp.int32)
     ok = jnp.take_along_axis(allowed, skill, axis=1)

@@ -19,7 +19,7 @@ from flax import struct
 
 from mjx_skills import methods, replay, rollout
 from mjx_skills.config import EnvConfig, TrainConfig
-from mjx_skills.learner import Learner
+from mjx_skills.learner import Learner, mean_records
 
 
 @struct.dataclass
@@ -65,6 +65,8 @@ def make_train_cycles(learner: Learner, env: Any, train: TrainConfig):
     """-> train_cycles(carry, aux) -> (carry, metrics): an epoch's `cycles` collect-store-update
     cycles without evaluation, pure and jittable."""
 
+    summarize = learner.summarize or mean_records
+
     def cycle(aux, carry: TrainCarry, _):
         key, k_roll, k_upd = jax.random.split(carry.key, 3)
         behaviour = learner.explore(carry.agent, aux, carry.epoch)
@@ -84,7 +86,7 @@ def make_train_cycles(learner: Learner, env: Any, train: TrainConfig):
             "train_success": final.metrics["success"].mean(),
             "physics_resets": final.metrics["physics_resets"].sum(),
             **jax.tree.map(jnp.mean, losses),
-            **{f"explore_{k}": jnp.mean(v.astype(jnp.float32)) for k, v in records.items()},
+            **{f"explore_{k}": v for k, v in summarize(records).items()},
         }
         return carry, stats
 
@@ -160,7 +162,14 @@ def build(
     epoch = jax.vmap(make_train_epoch(learner, env, train, eval_env), in_axes=(0, None))
     epoch_fn = jax.jit(epoch, donate_argnums=0)
     init = jax.vmap(lambda k: init_carry(learner, env, train, k, aux))
-    return env, learner, epoch_fn, jax.jit(init)(seed_keys(train))
+    return env, learner, epoch_fn, committed(jax.jit(init)(seed_keys(train)))
+
+
+def committed(carry: Any) -> Any:
+    """The carry placed on the default device explicitly. The epoch's outputs are committed
+    whenever one input is (a loaded skill library is), and jit keys its cache on that too:
+    an uncommitted first carry made every library method compile its epoch twice."""
+    return jax.device_put(carry, jax.devices()[0])
 
 
 if __name__ == "__main__":

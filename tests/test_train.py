@@ -112,7 +112,7 @@ def test_bad_input_names_the_field(tmp_path):
     with pytest.raises(ValueError, match="valid: ddpg_her"):
         train_run(RunArgs(train=TrainConfig(**TINY, out=str(tmp_path)), method="sac"))
     with pytest.raises(ValueError, match="no option group"):
-        train_run(RunArgs(train=TrainConfig(**TINY, out=str(tmp_path)), options={"pas": 1}))
+        train_run(RunArgs(train=TrainConfig(**TINY, out=str(tmp_path)), options={"search": 1}))
     assert not list(tmp_path.iterdir()), "bad input must not create a run directory"
     with pytest.raises(ValueError, match="envs"):
         TrainConfig(envs=0)
@@ -150,8 +150,8 @@ def test_counters_are_the_x_axes(tmp_path):
     [
         (["--task", "stack"], "valid: transit, grasp"),
         (["--method", "sac"], "method"),
-        (["--method", "pas"], "skill library"),
-        (["pas"], "skill library"),
+        (["--method", "pas", "--pas.library-dir", "/nonexistent/lib"], "no skill library"),
+        (["mpas", "--pas.library", "SL4"], "SL4"),
         (["sac", "--task", "transit"], "valid: ddpg_her"),
         (["--epochs", "0"], "epochs"),
         (["--resume", "/nonexistent/run"], "not a run directory"),

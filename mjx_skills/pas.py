@@ -1,0 +1,204 @@
+"""PAS and MPAS (thesis ch. 4): a DDPG meta-controller over the skill library in a
+parameterized action space (Hausknecht & Stone 2016, the thesis's reference [21]).
+
+The meta action is one vector in [-1, 1]^(K + 3K): a score per skill and every skill's goal
+parameters (padded to 3). The executed skill is the best-scoring one among those allowed
+to start here (transfer only with the cube in hand), its goal `goal_from_param` of its own
+parameters. The critic sees the whole vector; the actor is linear and kept inside the
+bounds by inverting gradients (`ddpg` with bounds='invert'). The chosen skill's library
+policy drives the arm until the skill's `terminated` predicate holds or `skill_steps` env
+steps pass, and the meta-controller chooses again. The task keeps its env-step budget, so
+episodes and env steps (the curves' x-axes) count exactly as DDPG+HER's do.
+
+Meta transitions are kept in episode layout: the episode itself plus, per meta step j, the
+env steps where it began and ended and its meta action. A sampled transition is
+(s_start, g, a, s_end) with the task's sparse reward at s_end (-1 / 0), one discount per
+meta step. MPAS relabels the goal with the achieved goal at the end of a later meta step
+of the same episode (hindsight at the coarse level) and recomputes the reward; PAS keeps
+the task's goal. Both see the goal as an input: our tasks draw a goal per episode, where
+the single-goal formulation of [21] fixes one, so PAS differs from MPAS by hindsight alone.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from mjx_skills import ddpg, replay, rollout
+from mjx_skills.config import DDPGConfig, PASConfig, TrainConfig
+from mjx_skills.learner import Learner
+from mjx_skills.library import PARAM_DIM, SkillLibrary
+
+
+@struct.dataclass
+class MetaState:
+    """Per env: the running skill, its goal and the env steps it has run."""
+
+    active: jax.Array
+    skill: jax.Array
+    goal: jax.Array
+    steps: jax.Array
+
+
+@struct.dataclass
+class MetaEpisode:
+    """An episode with its meta steps j = 0 .. count - 1 (leaves (T + 1 or T, ...))."""
+
+    episode: rollout.Episode
+    start: jax.Array
+    """(T,) int32 env step where meta step j began (T for j >= count)."""
+    end: jax.Array
+    """(T,) int32 env step where it ended: the next one's start, or T."""
+    action: jax.Array
+    """(T, meta_dim) its meta action."""
+    valid: jax.Array
+    """(T,) bool: j < count."""
+
+
+def meta_dim(n_skills: int) -> int:
+    return n_skills * (1 + PARAM_DIM)
+
+
+def choose(lib: SkillLibrary, meta_action: jax.Array, obs: jax.Array):
+    """meta_action (B, meta_dim), obs (B, 25) -> (skill (B,) int32, goal (B, 3)): the
+    best-scoring allowed skill and the goal its parameters name."""
+    K = len(lib.names)
+    scores = jnp.where(lib.allowed(obs), meta_action[..., :K], -jnp.inf)
+    skill = jnp.argmax(scores, axis=-1).astype(jnp.int32)
+    params = meta_action[..., K:].reshape(*meta_action.shape[:-1], K, PARAM_DIM)
+    param = jnp.take_along_axis(params, skill[..., None, None], axis=-2)[..., 0, :]
+    return skill, lib.goal_from_param(skill, param, obs)
+
+
+def make_behaviour(
+    agent: ddpg.DDPGState, lib: SkillLibrary, cfg: PASConfig, ddpg_config: DDPGConfig, noisy: bool
+) -> rollout.Behaviour:
+    """Meta-controller plus library policies as one behaviour; `noisy`: DDPG's exploration
+    (Gaussian noise on scores and parameters, random_eps uniform meta actions)."""
+
+    def init(key, n):
+        return MetaState(active=jnp.zeros((n,), bool), skill=jnp.zeros((n,), jnp.int32),
+                         goal=jnp.zeros((n, 3)), steps=jnp.zeros((n,), jnp.int32))  # fmt: skip
+
+    def step(ms: MetaState, key, state):
+        obs, task_goal = state.obs, state.desired_goal
+        done = lib.terminated(ms.skill, obs, ms.goal)
+        decide = ~ms.active | done | (ms.steps >= cfg.skill_steps)
+        if noisy:
+            meta = ddpg.explore(agent, key, obs, task_goal, ddpg_config)
+        else:
+            meta = ddpg.act(agent, obs, task_goal, ddpg_config)
+        new_skill, new_goal = choose(lib, meta, obs)
+        skill = jnp.where(decide, new_skill, ms.skill)
+        goal = jnp.where(decide[:, None], new_goal, ms.goal)
+        ended = decide & ms.active
+        record = {
+            "skill_calls": decide.astype(jnp.int32),
+            "decision": decide,
+            "meta_action": meta,
+            "skill": skill,
+            "ended": ended,
+            "ended_at_goal": ended & lib.reached(ms.skill, obs, ms.goal),
+        }
+        steps = jnp.where(decide, 0, ms.steps) + 1
+        new = MetaState(active=jnp.ones_like(decide), skill=skill, goal=goal, steps=steps)
+        return new, lib.policy_action(skill, obs, goal), record
+
+    return rollout.Behaviour(init=init, step=step)
+
+
+def store(episodes: rollout.Episode, records: dict[str, jax.Array]) -> MetaEpisode:
+    """Episodes (n, ...) and the behaviour's records (n, T, ...) -> their meta steps."""
+
+    def one(decision, meta_action):
+        T = decision.shape[0]
+        t = jnp.arange(T, dtype=jnp.int32)
+        rank = jnp.cumsum(decision) - 1
+        slot = jnp.where(decision, rank, T + 1)  # out of range: dropped
+        start = jnp.full((T + 1,), T, jnp.int32).at[slot].set(t, mode="drop")
+        return start[:T], start[1:], meta_action[jnp.minimum(start[:T], T - 1)], t <= rank[-1]
+
+    start, end, action, valid = jax.vmap(one)(records["decision"], records["meta_action"])
+    return MetaEpisode(episode=episodes, start=start, end=end, action=action, valid=valid)
+
+
+def sample_batch(
+    buffer: replay.ReplayState, key: jax.Array, n: int, env: Any, cfg: PASConfig
+) -> dict[str, jax.Array]:
+    """n meta transitions uniform over episodes, then over each episode's meta steps; with
+    `cfg.hindsight` a `relabel_prob` share gets the achieved goal at the end of a meta step
+    k >= j of the same episode. Reward = the task's reward at the end of meta step j."""
+    k_idx, k_j, k_future, k_mask = jax.random.split(key, 4)
+    d = buffer.data
+    ep, _ = replay.sample_indices(buffer, k_idx, n)
+    count = jnp.sum(d.valid[ep], axis=-1)
+    j = jnp.floor(jax.random.uniform(k_j, (n,)) * count).astype(jnp.int32)
+    j = jnp.minimum(j, count - 1)
+    start, end = d.start[ep, j], d.end[ep, j]
+    goal = d.episode.g[ep, start]
+    next_ag = d.episode.ag[ep, end]
+    if cfg.hindsight:
+        later = j + jnp.floor(jax.random.uniform(k_future, (n,)) * (count - j)).astype(jnp.int32)
+        future_ag = d.episode.ag[ep, d.end[ep, jnp.minimum(later, count - 1)]]
+        relabel = jax.random.uniform(k_mask, (n,)) < cfg.relabel_prob
+        goal = jnp.where(relabel[:, None], future_ag, goal)
+    return {
+        "obs": d.episode.obs[ep, start],
+        "next_obs": d.episode.obs[ep, end],
+        "goal": goal,
+        "action": d.action[ep, j],
+        "reward": env.compute_reward(next_ag, goal),
+    }
+
+
+def summarize(names: tuple[str, ...]):
+    """-> records -> per-cycle metrics: the share of each skill among the choices, the mean
+    env steps per meta step and the share of ended skills that reached their goal."""
+
+    def fn(records: dict[str, jax.Array]) -> dict[str, jax.Array]:
+        decision = records["decision"]
+        n_choices = jnp.maximum(jnp.sum(decision), 1)
+        shares = {f"share_{name}": jnp.sum(decision & (records["skill"] == i)) / n_choices
+                  for i, name in enumerate(names)}  # fmt: skip
+        ended = jnp.maximum(jnp.sum(records["ended"]), 1)
+        return {
+            **shares,
+            "skill_length": decision.size / n_choices,
+            "skill_success": jnp.sum(records["ended_at_goal"]) / ended,
+        }
+
+    return fn
+
+
+def make_pas(env: Any, train: TrainConfig, ddpg: DDPGConfig, pas: PASConfig) -> Learner:
+    """PAS (pas.hindsight off) or MPAS (on); `aux` is the SkillLibrary. (The parameters are
+    named after the method's option groups, `--ddpg.*` and `--pas.*`.)"""
+    from mjx_skills import ddpg as agent_ops
+    from mjx_skills.library import library_skills
+
+    names = library_skills(pas.library)
+
+    def init(key):
+        return agent_ops.init(key, env.obs_dim, env.goal_dim, meta_dim(len(names)), ddpg,
+                              bounds="invert")  # fmt: skip
+
+    def update(agent, buffer, fresh: MetaEpisode, key):
+        ep = fresh.episode
+        agent = agent_ops.observe(agent, ep.obs.reshape(-1, env.obs_dim),
+                                  jnp.concatenate([ep.g, ep.ag], 1).reshape(-1, env.goal_dim))  # fmt: skip
+        n, b = pas.updates_per_cycle, ddpg.batch_size
+        batch = sample_batch(buffer, key, n * b, env, pas)
+        batches = jax.tree.map(lambda x: x.reshape(n, b, *x.shape[1:]), batch)
+        return agent_ops.update(agent, batches, ddpg)
+
+    return Learner(
+        init=init,
+        explore=lambda agent, lib, epoch: make_behaviour(agent, lib, pas, ddpg, noisy=True),
+        evaluate=lambda agent, lib: make_behaviour(agent, lib, pas, ddpg, noisy=False),
+        store=store,
+        update=update,
+        summarize=summarize(names),
+    )
