@@ -321,8 +321,10 @@ class PASConfig:
     relabel_prob: float = 0.8
     """Share of sampled meta transitions relabelled when `hindsight` is on."""
     skill_steps: int = 20
-    """A chosen skill runs until its `terminated` predicate holds or for this many env
-    steps (the skills' own training horizon), then the meta-controller chooses again."""
+    """A chosen skill runs until it reaches its goal or for this many env steps (the skills'
+    own training horizon), then the meta-controller chooses again."""
+    drop_distance: float = 0.04
+    """Transfer also stops once the cube is this far (m) from the gripper: dropped."""
     updates_per_cycle: int = 40
     """Gradient steps of the meta-controller per cycle. A cycle's 4 episodes hold about 20
     meta transitions, not DDPG+HER's 200 transitions: 40 steps (the HER code's per-cycle
@@ -333,3 +335,4 @@ class PASConfig:
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         for name in ("skill_steps", "updates_per_cycle"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")
+        _check(self.drop_distance > 0, "drop_distance", "must be > 0")

@@ -6,8 +6,8 @@ parameters (padded to 3). The executed skill is the best-scoring one among those
 to start here (transfer only with the cube in hand), its goal `goal_from_param` of its own
 parameters. The critic sees the whole vector; the actor is linear and kept inside the
 bounds by inverting gradients (`ddpg` with bounds='invert'). The chosen skill's library
-policy drives the arm until the skill's `terminated` predicate holds or `skill_steps` env
-steps pass, and the meta-controller chooses again. The task keeps its env-step budget, so
+policy drives the arm until the skill reaches its goal (transfer: or drops the cube) or
+`skill_steps` env steps pass, and the meta-controller chooses again. The task keeps its env-step budget, so
 episodes and env steps (the curves' x-axes) count exactly as DDPG+HER's do.
 
 Meta transitions are kept in episode layout: the episode itself plus, per meta step j, the
@@ -29,6 +29,7 @@ from flax import struct
 
 from mjx_skills import ddpg, replay, rollout
 from mjx_skills.config import DDPGConfig, PASConfig, TrainConfig
+from mjx_skills.envs.baxter import OBS_REL
 from mjx_skills.learner import Learner
 from mjx_skills.library import PARAM_DIM, SkillLibrary
 
@@ -85,7 +86,7 @@ def make_behaviour(
 
     def step(ms: MetaState, key, state):
         obs, task_goal = state.obs, state.desired_goal
-        done = lib.terminated(ms.skill, obs, ms.goal)
+        done = _stopped(lib, ms.skill, obs, ms.goal, cfg.drop_distance)
         decide = ~ms.active | done | (ms.steps >= cfg.skill_steps)
         if noisy:
             meta = ddpg.explore(agent, key, obs, task_goal, ddpg_config)
@@ -108,6 +109,16 @@ def make_behaviour(
         return new, lib.policy_action(skill, obs, goal), record
 
     return rollout.Behaviour(init=init, step=step)
+
+
+def _stopped(lib: SkillLibrary, skill, obs, goal, drop_distance: float) -> jax.Array:
+    """A chosen skill stops at its goal; transfer also once the cube is `drop_distance` away
+    from the gripper. (The library's `terminated` stops transfer as soon as the grasp
+    predicate fails, which a carried cube swinging in the fingers trips for a step or two:
+    meta steps of 1-3 steps that never carried the cube to the chosen goal.)"""
+    dropped = jnp.linalg.norm(obs[..., OBS_REL], axis=-1) > drop_distance
+    is_transfer = jnp.array([name == "transfer" for name in lib.names])[skill]
+    return lib.reached(skill, obs, goal) | (is_transfer & dropped)
 
 
 def store(episodes: rollout.Episode, records: dict[str, jax.Array]) -> MetaEpisode:

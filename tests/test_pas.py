@@ -132,10 +132,10 @@ def test_a_meta_step_is_the_skills_own_run(env_factory):
         c = int(np.flatnonzero(decision[e, 1:])[0]) + 1  # the second choice's step
         s = state
         for t in range(c):
-            reached = bool(lib.terminated(skill, s.obs, goal)[e])
+            reached = bool(lib.reached(skill, s.obs, goal)[e])
             assert not reached or t == 0, "the skill ran on after terminating"
             s = step(s)
-        done = bool(lib.terminated(skill, s.obs, goal)[e])
+        done = bool(lib.reached(skill, s.obs, goal)[e])
         assert c == cfg.skill_steps or done, "the meta step ended before its skill did"
         np.testing.assert_allclose(episodes.obs[e, c], s.obs[e], atol=1e-4)
         assert int(records["skill"][e, 0]) == transit

@@ -14,7 +14,7 @@ from flax import struct
 from mjx_skills import search, sl
 from mjx_skills.config import DDPGConfig, SearchConfig
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
-from mjx_skills.library import consistent, skill_envs
+from mjx_skills.library import SkillLibrary, consistent, skill_envs
 
 NAMES = ("transit", "grasp", "transfer")
 
@@ -54,6 +54,7 @@ class KnownLibrary:
         return consistent(obs, moved)
 
     recall = next_state
+    allowed = SkillLibrary.allowed  # the real rule: transfer only with the cube in hand
 
     def terminated(self, skill, obs, goal):
         return jnp.zeros(skill.shape, bool)
