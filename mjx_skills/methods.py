@@ -58,24 +58,28 @@ METHODS: dict[str, Method] = {
         needs_library=True,
         load_aux=lambda options: load_library(options["search"]),
     ),
-    "pas": Method(
-        name="pas",
-        description="parameterized-action-space DDPG meta-controller over the skill library, "
-        "no hindsight (thesis baseline 2)",
-        options={"ddpg": DDPGConfig(), "pas": PASConfig(hindsight=False)},
-        make_learner=make_pas,
-        needs_library=True,
-        load_aux=lambda options: load_library(options["pas"]),
-    ),
-    "mpas": Method(
-        name="mpas",
-        description="multi-goal PAS: the meta-controller with hindsight relabelling at the "
-        "skill level (thesis approach 1, ch. 4)",
-        options={"ddpg": DDPGConfig(), "pas": PASConfig(hindsight=True)},
-        make_learner=make_pas,
-        needs_library=True,
-        load_aux=lambda options: load_library(options["pas"]),
-    ),
+    **{
+        name: Method(
+            name=name,
+            description=description,
+            options={"ddpg": DDPGConfig(), "pas": PASConfig(hindsight=name == "mpas")},
+            make_learner=make_pas,
+            needs_library=True,
+            load_aux=lambda options: load_library(options["pas"]),
+        )
+        for name, description in (
+            (
+                "pas",
+                "parameterized-action-space DDPG meta-controller over the skill library, "
+                "no hindsight (thesis baseline 2)",
+            ),
+            (
+                "mpas",
+                "multi-goal PAS: the meta-controller with hindsight relabelling at the "
+                "skill level (thesis approach 1, ch. 4)",
+            ),
+        )
+    },
 }
 
 
