@@ -40,8 +40,12 @@ class DDPGState:
 
 
 def _actor(state: DDPGState, config: DDPGConfig) -> Actor:
-    return Actor(act_dim=state.act_dim, hidden=tuple(config.hidden),
-                 layer_norm=config.layer_norm, squash=state.bounds == "tanh")  # fmt: skip
+    return _actor_module(state.act_dim, state.bounds, config)
+
+
+def _actor_module(act_dim: int, bounds: str, config: DDPGConfig) -> Actor:
+    return Actor(act_dim=act_dim, hidden=tuple(config.hidden),
+                 layer_norm=config.layer_norm, squash=bounds == "tanh")  # fmt: skip
 
 
 def _critic(config: DDPGConfig) -> Critic:
@@ -74,9 +78,7 @@ def init(
     obs = jnp.zeros((1, obs_dim), jnp.float32)
     goal = jnp.zeros((1, goal_dim), jnp.float32)
     action = jnp.zeros((1, act_dim), jnp.float32)
-    actor = Actor(act_dim=act_dim, hidden=tuple(config.hidden), layer_norm=config.layer_norm,
-                  squash=bounds == "tanh")  # fmt: skip
-    actor_params = actor.init(k_actor, obs, goal)
+    actor_params = _actor_module(act_dim, bounds, config).init(k_actor, obs, goal)
     critic_params = _critic(config).init(k_critic, obs, goal, action)
     return DDPGState(
         actor_params=actor_params,

@@ -22,7 +22,7 @@ import optax
 
 from mjx_skills import ddpg, optim
 from mjx_skills.config import DDPGConfig, LibraryConfig
-from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, BaxterEnv
+from mjx_skills.envs.baxter import BaxterEnv
 from mjx_skills.nets import CoarseDynamics, SuccessClassifier
 
 NORM_FLOOR = 1e-3
@@ -71,7 +71,7 @@ def make_collect(
         init = (state, done0, s0, jnp.zeros((n,), jnp.int32))
         (state, done, s_T, steps), _ = jax.lax.scan(body, init, None, length=horizon)
         s_T = jnp.where(done[:, None], s_T, state.obs)
-        achieved = s_T[:, OBS_OBJECT] if skill_env.goal_is_object else s_T[:, OBS_GRIP]
+        achieved = skill_env.achieved_from_obs(s_T)
         source = jnp.concatenate([jnp.full((c,), i, jnp.int32) for i, c in enumerate(counts)])
         return {"s0": s0, "goal": goal, "param": param, "s_T": s_T, "steps": steps,
                 "success": skill_env.is_success(achieved, goal), "source": source}  # fmt: skip

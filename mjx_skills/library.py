@@ -165,10 +165,7 @@ class SkillLibrary:
 
     def reached(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Whether each env's skill is at its goal (its own success predicate): (B,) bool."""
-        at = jnp.stack([
-            env.is_success(obs[..., OBS_OBJECT] if env.goal_is_object else obs[..., OBS_GRIP], goal)
-            for env in self.envs
-        ])  # fmt: skip
+        at = jnp.stack([env.is_success(env.achieved_from_obs(obs), goal) for env in self.envs])
         return _select(at, skill)
 
     def allowed(self, obs: jax.Array) -> jax.Array:

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 from flax import struct
 
 from mjx_skills.config import SearchConfig
-from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
+from mjx_skills.envs.baxter import OBS_OBJECT
 from mjx_skills.library import SkillLibrary
 
 
@@ -75,7 +75,7 @@ def sample_edges(
 
 def leaf_value(cfg: SearchConfig, env: Any, obs: jax.Array, task_goal: jax.Array) -> jax.Array:
     """v(leaf): (...) from predicted observations (..., 25) and task goals (..., 3)."""
-    achieved = obs[..., OBS_OBJECT] if env.goal_is_object else obs[..., OBS_GRIP]
+    achieved = env.achieved_from_obs(obs)
     if cfg.leaf_value == "reward":
         return env.compute_reward(achieved, task_goal)
     return -jnp.linalg.norm(achieved - task_goal, axis=-1) / env.threshold

@@ -161,6 +161,10 @@ class BaxterEnv:
     def achieved_goal(self, sens: dict[str, jax.Array]) -> jax.Array:
         return sens["object_pos"] if self.goal_is_object else sens["grip_pos"]
 
+    def achieved_from_obs(self, obs: jax.Array) -> jax.Array:
+        """The achieved goal read from observations (..., 25), e.g. predicted ones."""
+        return obs[..., OBS_OBJECT] if self.goal_is_object else obs[..., OBS_GRIP]
+
     def is_success(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array:
         return jnp.linalg.norm(achieved_goal - desired_goal, axis=-1) < self.threshold
 
