@@ -325,6 +325,16 @@ class PASConfig:
     own training horizon), then the meta-controller chooses again."""
     drop_distance: float = 0.04
     """Transfer also stops once the cube is this far (m) from the gripper: dropped."""
+    critic: Literal["joint", "per_skill"] = "per_skill"
+    """'per_skill': Q(s, g, k, goal_k) on the chosen skill's goal alone (the thesis's outlook,
+    MP-DQN; `pdqn`); 'joint': one critic over every skill's score and parameters, the actor
+    bounded by inverting gradients (the thesis, after Hausknecht & Stone). Measured on
+    take_out (MPAS, 2 seeds, mean eval success of epochs 26-30): per_skill + terminal 0.90,
+    joint + terminal 0.28, per_skill alone 0.01, joint alone 0.05."""
+    terminal_at_goal: bool = True
+    """A meta transition that reaches the goal ends the meta-level return (no bootstrap):
+    reaching g is worth 0 at once instead of through a chain of "stay" meta steps. (The
+    thesis does not say; off, neither critic learned take_out in 30 epochs.)"""
     updates_per_cycle: int = 40
     """Gradient steps of the meta-controller per cycle. A cycle's 4 episodes hold about 35
     meta transitions (measured on take_out), not DDPG+HER's 200 transitions: 40 steps (the HER code's per-cycle
@@ -332,6 +342,7 @@ class PASConfig:
 
     def __post_init__(self) -> None:
         _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")
+        _check(self.critic in ("joint", "per_skill"), "critic", "valid: joint, per_skill")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         for name in ("skill_steps", "updates_per_cycle"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")

@@ -39,7 +39,7 @@ class DDPGState:
     parameterized-action actor of PAS), clipping it wherever an action is used."""
 
 
-def _actor(state: DDPGState, config: DDPGConfig) -> Actor:
+def actor_module(state: DDPGState, config: DDPGConfig) -> Actor:
     return _actor_module(state.act_dim, state.bounds, config)
 
 
@@ -48,15 +48,15 @@ def _actor_module(act_dim: int, bounds: str, config: DDPGConfig) -> Actor:
                  layer_norm=config.layer_norm, squash=bounds == "tanh")  # fmt: skip
 
 
-def _critic(config: DDPGConfig) -> Critic:
+def critic_module(config: DDPGConfig) -> Critic:
     return Critic(hidden=tuple(config.hidden), layer_norm=config.layer_norm)
 
 
-def _actor_opt(config: DDPGConfig) -> optax.GradientTransformation:
+def actor_opt(config: DDPGConfig) -> optax.GradientTransformation:
     return optax.adam(config.actor_lr)
 
 
-def _critic_opt(config: DDPGConfig) -> optax.GradientTransformation:
+def critic_opt(config: DDPGConfig) -> optax.GradientTransformation:
     return optax.adam(config.critic_lr)
 
 
@@ -70,23 +70,26 @@ def init(
     act_dim: int,
     config: DDPGConfig,
     bounds: str = "tanh",
+    critic_act_dim: int | None = None,
 ) -> DDPGState:
-    """Fresh networks (targets equal to the online ones), Adam states, empty normalisers."""
+    """Fresh networks (targets equal to the online ones), Adam states, empty normalisers.
+    `critic_act_dim`: the critic's action input where it is not the actor's output (the
+    per-skill critic of PAS, `pdqn`)."""
     if bounds not in BOUNDS:
         raise ValueError(f"unknown action bounds {bounds!r}; valid: {', '.join(BOUNDS)}")
     k_actor, k_critic = jax.random.split(key)
     obs = jnp.zeros((1, obs_dim), jnp.float32)
     goal = jnp.zeros((1, goal_dim), jnp.float32)
-    action = jnp.zeros((1, act_dim), jnp.float32)
+    action = jnp.zeros((1, critic_act_dim or act_dim), jnp.float32)
     actor_params = _actor_module(act_dim, bounds, config).init(k_actor, obs, goal)
-    critic_params = _critic(config).init(k_critic, obs, goal, action)
+    critic_params = critic_module(config).init(k_critic, obs, goal, action)
     return DDPGState(
         actor_params=actor_params,
         critic_params=critic_params,
         target_actor_params=actor_params,
         target_critic_params=critic_params,
-        actor_opt_state=_actor_opt(config).init(actor_params),
-        critic_opt_state=_critic_opt(config).init(critic_params),
+        actor_opt_state=actor_opt(config).init(actor_params),
+        critic_opt_state=critic_opt(config).init(critic_params),
         obs_norm=normalizer.init(obs_dim),
         goal_norm=normalizer.init(goal_dim),
         steps=jnp.zeros((), jnp.int32),
@@ -95,7 +98,7 @@ def init(
     )
 
 
-def _norm_inputs(
+def normalize_inputs(
     state: DDPGState, obs: jax.Array, goal: jax.Array, config: DDPGConfig
 ) -> tuple[jax.Array, jax.Array]:
     o = normalizer.normalize(state.obs_norm, obs, config.norm_clip, config.norm_eps)
@@ -105,8 +108,8 @@ def _norm_inputs(
 
 def act(state: DDPGState, obs: jax.Array, goal: jax.Array, config: DDPGConfig) -> jax.Array:
     """Deterministic policy: (..., obs_dim), (..., goal_dim) -> (..., act_dim) in [-1, 1]."""
-    o, g = _norm_inputs(state, obs, goal, config)
-    return _bounded(state, _actor(state, config).apply(state.actor_params, o, g))
+    o, g = normalize_inputs(state, obs, goal, config)
+    return _bounded(state, actor_module(state, config).apply(state.actor_params, o, g))
 
 
 def _bounded(state: DDPGState, action: jax.Array) -> jax.Array:
@@ -139,8 +142,8 @@ def q_value(
     state: DDPGState, obs: jax.Array, goal: jax.Array, action: jax.Array, config: DDPGConfig
 ) -> jax.Array:
     """Online critic Q: (..., obs_dim), (..., goal_dim), (..., act_dim) -> (...)."""
-    o, g = _norm_inputs(state, obs, goal, config)
-    return _critic(config).apply(state.critic_params, o, g, action)
+    o, g = normalize_inputs(state, obs, goal, config)
+    return critic_module(config).apply(state.critic_params, o, g, action)
 
 
 def observe(state: DDPGState, obs: jax.Array, goal: jax.Array) -> DDPGState:
@@ -151,34 +154,40 @@ def observe(state: DDPGState, obs: jax.Array, goal: jax.Array) -> DDPGState:
     )
 
 
-def _normalize_batch(
+def normalize_batch(
     state: DDPGState, batch: dict[str, jax.Array], config: DDPGConfig
 ) -> dict[str, jax.Array]:
     """Raw batch (obs, next_obs, goal, action, reward) -> the networks' inputs: normalised
     `obs`, `next_obs` and `goal`, raw `action` and `reward`."""
-    o, g = _norm_inputs(state, batch["obs"], batch["goal"], config)
+    o, g = normalize_inputs(state, batch["obs"], batch["goal"], config)
     o2 = normalizer.normalize(state.obs_norm, batch["next_obs"], config.norm_clip, config.norm_eps)
-    return {"obs": o, "next_obs": o2, "goal": g, "action": batch["action"],
-            "reward": batch["reward"]}  # fmt: skip
+    out = {"obs": o, "next_obs": o2, "goal": g, "action": batch["action"],
+           "reward": batch["reward"]}  # fmt: skip
+    return {**out, "terminal": batch["terminal"]} if "terminal" in batch else out
 
 
 def _td_target(state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig) -> jax.Array:
     o2, g = nbatch["next_obs"], nbatch["goal"]
-    a2 = _bounded(state, _actor(state, config).apply(state.target_actor_params, o2, g))
-    q2 = _critic(config).apply(state.target_critic_params, o2, g, a2)
+    a2 = _bounded(state, actor_module(state, config).apply(state.target_actor_params, o2, g))
+    q2 = critic_module(config).apply(state.target_critic_params, o2, g, a2)
     reward = nbatch["reward"]
     if reward.shape != q2.shape:  # (B, 1) rewards would silently broadcast to (B, B)
         raise ValueError(f"reward shape {reward.shape} != Q shape {q2.shape}")
-    y = reward + config.gamma * q2
+    y = reward + config.gamma * bootstrap(nbatch, q2)
     if config.clip_target:
         y = jnp.clip(y, -1.0 / (1.0 - config.gamma), 0.0)
     return jax.lax.stop_gradient(y)
 
 
+def bootstrap(nbatch: dict[str, jax.Array], q2: jax.Array) -> jax.Array:
+    """Q' where the transition goes on; 0 after an optional `terminal` (PAS: goal reached)."""
+    return q2 * (1.0 - nbatch["terminal"]) if "terminal" in nbatch else q2
+
+
 def td_target(state: DDPGState, batch: dict[str, jax.Array], config: DDPGConfig) -> jax.Array:
     """(B,) critic target r + gamma * Q_target(s', g, pi_target(s', g)), optionally clipped to
     [-1 / (1 - gamma), 0] (no terminal masking: episodes end by time limit only)."""
-    return _td_target(state, _normalize_batch(state, batch, config), config)
+    return _td_target(state, normalize_batch(state, batch, config), config)
 
 
 def update(
@@ -193,14 +202,14 @@ def update(
     at one update per env step ran 1.44x faster so on 2 CPU cores).
     Returns the new state and per-step metrics (n,): critic_loss, actor_loss, q_mean.
     """
-    nbatches = _normalize_batch(state, batches, config)
+    nbatches = normalize_batch(state, batches, config)
     return jax.lax.scan(lambda s, nbatch: _step(s, nbatch, config), state, nbatches)
 
 
 def _step(
     state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig
 ) -> tuple[DDPGState, dict[str, jax.Array]]:
-    actor, critic = _actor(state, config), _critic(config)
+    actor, critic = actor_module(state, config), critic_module(config)
     o, g, action = nbatch["obs"], nbatch["goal"], nbatch["action"]
     y = _td_target(state, nbatch, config)
 
@@ -209,7 +218,7 @@ def _step(
         return jnp.mean((q - y) ** 2), q
 
     critic_params, critic_opt_state, critic_loss, q = optim.gradient_step(
-        critic_loss_fn, state.critic_params, state.critic_opt_state, _critic_opt(config)
+        critic_loss_fn, state.critic_params, state.critic_opt_state, critic_opt(config)
     )
 
     def actor_loss_fn(params: Params) -> tuple[jax.Array, None]:
@@ -227,9 +236,26 @@ def _step(
         return -jnp.mean(q_pi) + config.action_l2 * jnp.mean(pi**2), None
 
     actor_params, actor_opt_state, actor_loss, _ = optim.gradient_step(
-        actor_loss_fn, state.actor_params, state.actor_opt_state, _actor_opt(config)
+        actor_loss_fn, state.actor_params, state.actor_opt_state, actor_opt(config)
     )
-    new_state = state.replace(
+    new_state = advance(
+        state, actor_params, critic_params, actor_opt_state, critic_opt_state, config
+    )
+    metrics = {"critic_loss": critic_loss, "actor_loss": actor_loss, "q_mean": jnp.mean(q)}
+    return new_state, metrics
+
+
+def advance(
+    state: DDPGState,
+    actor_params: Params,
+    critic_params: Params,
+    actor_opt_state: optax.OptState,
+    critic_opt_state: optax.OptState,
+    config: DDPGConfig,
+) -> DDPGState:
+    """The state after one gradient step: new networks and optimiser states, targets moved
+    by Polyak averaging, the step counted."""
+    return state.replace(
         actor_params=actor_params,
         critic_params=critic_params,
         target_actor_params=optim.soft_update(state.target_actor_params, actor_params, config.tau),
@@ -240,5 +266,3 @@ def _step(
         critic_opt_state=critic_opt_state,
         steps=state.steps + 1,
     )
-    metrics = {"critic_loss": critic_loss, "actor_loss": actor_loss, "q_mean": jnp.mean(q)}
-    return new_state, metrics

@@ -171,9 +171,13 @@ class SkillLibrary:
     def allowed(self, obs: jax.Array) -> jax.Array:
         """(..., K) bool: the skills that may start here. Transfer needs the cube in hand;
         transit and grasp need an empty gripper (the skills' start conditions)."""
-        held = self.envs[0].grasped(obs)
-        is_transfer = jnp.array([name == "transfer" for name in self.names])
-        return jnp.where(held[..., None], is_transfer, ~is_transfer)
+        return allowed_skills(self.names, self.envs[0].grasped(obs))
+
+
+def allowed_skills(names: tuple[str, ...], held: jax.Array) -> jax.Array:
+    """held (...,) bool -> (..., K) bool: transfer with the cube in hand, else the others."""
+    is_transfer = jnp.array([name == "transfer" for name in names])
+    return jnp.where(held[..., None], is_transfer, ~is_transfer)
 
 
 def _select(stacked: jax.Array, skill: jax.Array) -> jax.Array:

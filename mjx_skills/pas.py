@@ -27,11 +27,11 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from mjx_skills import ddpg, replay, rollout
+from mjx_skills import ddpg, pdqn, replay, rollout
 from mjx_skills.config import DDPGConfig, PASConfig, TrainConfig
 from mjx_skills.envs.baxter import OBS_REL
 from mjx_skills.learner import Learner
-from mjx_skills.library import PARAM_DIM, SkillLibrary
+from mjx_skills.library import PARAM_DIM, SkillLibrary, allowed_skills, skill_envs
 
 
 @struct.dataclass
@@ -88,11 +88,16 @@ def make_behaviour(
         obs, task_goal = state.obs, state.desired_goal
         done = _stopped(lib, ms.skill, obs, ms.goal, cfg.drop_distance)
         decide = ~ms.active | done | (ms.steps >= cfg.skill_steps)
-        if noisy:
-            meta = ddpg.explore(agent, key, obs, task_goal, ddpg_config)
+        if cfg.critic == "per_skill":
+            new_skill, new_goal, meta = pdqn.choose(agent, obs, task_goal, lib.allowed(obs),
+                                                    pdqn.skill_goals(lib.envs), ddpg_config,
+                                                    key if noisy else None)  # fmt: skip
         else:
-            meta = ddpg.act(agent, obs, task_goal, ddpg_config)
-        new_skill, new_goal = choose(lib, meta, obs)
+            if noisy:
+                meta = ddpg.explore(agent, key, obs, task_goal, ddpg_config)
+            else:
+                meta = ddpg.act(agent, obs, task_goal, ddpg_config)
+            new_skill, new_goal = choose(lib, meta, obs)
         skill = jnp.where(decide, new_skill, ms.skill)
         goal = jnp.where(decide[:, None], new_goal, ms.goal)
         ended = decide & ms.active
@@ -137,11 +142,18 @@ def store(episodes: rollout.Episode, records: dict[str, jax.Array]) -> MetaEpiso
 
 
 def sample_batch(
-    buffer: replay.ReplayState, key: jax.Array, n: int, env: Any, cfg: PASConfig
+    buffer: replay.ReplayState,
+    key: jax.Array,
+    n: int,
+    env: Any,
+    cfg: PASConfig,
+    names: tuple[str, ...],
 ) -> dict[str, jax.Array]:
     """n meta transitions uniform over episodes, then over each episode's meta steps; with
     `cfg.hindsight` a `relabel_prob` share gets the achieved goal at the end of a meta step
-    k >= j of the same episode. Reward = the task's reward at the end of meta step j."""
+    k >= j of the same episode. Reward = the task's reward at the end of meta step j;
+    `allowed` / `next_allowed` (n, K): the skills that may start at either end; `terminal`:
+    the goal reached, with `cfg.terminal_at_goal`."""
     k_idx, k_j, k_future, k_mask = jax.random.split(key, 4)
     d = buffer.data
     ep, _ = replay.sample_indices(buffer, k_idx, n)
@@ -156,12 +168,17 @@ def sample_batch(
         future_ag = d.episode.ag[ep, d.end[ep, jnp.minimum(later, count - 1)]]
         relabel = jax.random.uniform(k_mask, (n,)) < cfg.relabel_prob
         goal = jnp.where(relabel[:, None], future_ag, goal)
+    obs, next_obs = d.episode.obs[ep, start], d.episode.obs[ep, end]
+    reward = env.compute_reward(next_ag, goal)
     return {
-        "obs": d.episode.obs[ep, start],
-        "next_obs": d.episode.obs[ep, end],
+        "obs": obs,
+        "next_obs": next_obs,
         "goal": goal,
         "action": d.action[ep, j],
-        "reward": env.compute_reward(next_ag, goal),
+        "reward": reward,
+        "terminal": (reward == 0.0).astype(jnp.float32) * cfg.terminal_at_goal,
+        "allowed": allowed_skills(names, env.grasped(obs)),
+        "next_allowed": allowed_skills(names, env.grasped(next_obs)),
     }
 
 
@@ -193,6 +210,8 @@ def make_pas(env: Any, train: TrainConfig, ddpg: DDPGConfig, pas: PASConfig) -> 
     names = library_skills(pas.library)
 
     def init(key):
+        if pas.critic == "per_skill":
+            return pdqn.init(key, env.obs_dim, env.goal_dim, len(names), ddpg)
         return agent_ops.init(key, env.obs_dim, env.goal_dim, meta_dim(len(names)), ddpg,
                               bounds="invert")  # fmt: skip
 
@@ -201,8 +220,10 @@ def make_pas(env: Any, train: TrainConfig, ddpg: DDPGConfig, pas: PASConfig) -> 
         agent = agent_ops.observe(agent, ep.obs.reshape(-1, env.obs_dim),
                                   jnp.concatenate([ep.g, ep.ag], 1).reshape(-1, env.goal_dim))  # fmt: skip
         n, b = pas.updates_per_cycle, ddpg.batch_size
-        batch = sample_batch(buffer, key, n * b, env, pas)
+        batch = sample_batch(buffer, key, n * b, env, pas, names)
         batches = jax.tree.map(lambda x: x.reshape(n, b, *x.shape[1:]), batch)
+        if pas.critic == "per_skill":
+            return pdqn.update(agent, batches, pdqn.skill_goals(skill_envs(names)), ddpg)
         return agent_ops.update(agent, batches, ddpg)
 
     return Learner(

@@ -11,7 +11,7 @@ import pytest
 
 from mjx_skills import ddpg, pas, replay, rollout, train
 from mjx_skills.config import DDPGConfig, EnvConfig, PASConfig, SearchConfig, TrainConfig
-from mjx_skills.library import DEFAULT_DIR, load
+from mjx_skills.library import DEFAULT_DIR, LIBRARIES, load
 from mjx_skills.logging import read_metrics
 from mjx_skills.runner import RunArgs, train_run
 
@@ -41,8 +41,8 @@ def test_an_inverting_actor_learns_and_stays_inside_its_bounds():
                "reward": 3.0 * action[..., 0]}  # fmt: skip
     state = ddpg.observe(state, obs.reshape(-1, 2), jnp.zeros((n * b, 1)))
     state, _ = ddpg.update(state, batches, cfg)
-    o, g = ddpg._norm_inputs(state, obs[0], jnp.zeros((b, 1)), cfg)
-    raw = ddpg._actor(state, cfg).apply(state.actor_params, o, g)
+    o, g = ddpg.normalize_inputs(state, obs[0], jnp.zeros((b, 1)), cfg)
+    raw = ddpg.actor_module(state, cfg).apply(state.actor_params, o, g)
     assert float(raw[:, 0].mean()) > 0.8, "the actor follows the critic towards the bound"
     assert float(jnp.abs(raw).max()) < 1.1, "and stays (about) inside it"
 
@@ -73,10 +73,12 @@ def test_coarse_hindsight_relabels_with_a_later_meta_steps_achieved_goal(hindsig
     stored = pas.store(episodes, {"decision": decision, "meta_action": jnp.zeros((n_eps, T, 1))})
     buffer = replay.add(replay.init(10 * T, jax.tree.map(lambda x: x[0], stored), T=T), stored)
     env = SimpleNamespace(
-        compute_reward=lambda a, d: jnp.where(jnp.abs(a - d)[..., 0] < 0.5, 0.0, -1.0)
+        compute_reward=lambda a, d: jnp.where(jnp.abs(a - d)[..., 0] < 0.5, 0.0, -1.0),
+        grasped=lambda obs: jnp.zeros(obs.shape[:-1], bool),
     )
     cfg = PASConfig(hindsight=hindsight, relabel_prob=1.0)
-    batch = jax.tree.map(np.asarray, pas.sample_batch(buffer, jax.random.PRNGKey(0), 500, env, cfg))
+    sampled = pas.sample_batch(buffer, jax.random.PRNGKey(0), 500, env, cfg, LIBRARIES["SL1"])
+    batch = jax.tree.map(np.asarray, sampled)
     ends = {0: 2, 2: 5, 5: 9, 9: 12}
     for obs, next_obs, goal, reward in zip(
         batch["obs"][:, 0],
@@ -116,7 +118,7 @@ def test_a_meta_step_is_the_skills_own_run(env_factory):
     x = jnp.array([0.3, -0.2, 0.1])
     meta = jnp.full((pas.meta_dim(K),), -1.0).at[transit].set(1.0)
     meta = meta.at[K + 3 * transit : K + 3 * transit + 3].set(x)
-    cfg = PASConfig(skill_steps=6)
+    cfg = PASConfig(skill_steps=6, critic="joint")
     behaviour = pas.make_behaviour(_constant_meta_agent(meta), lib, cfg, DDPGConfig(), noisy=False)
     key = jax.random.PRNGKey(3)
     episodes, _, records = jax.jit(lambda k: rollout.run_episodes(env, behaviour, k, 2))(key)
@@ -147,6 +149,7 @@ TINY = dict(task="pick_move", envs=2, cycles=2, updates_per_cycle=3, eval_episod
 LIBRARY_METHODS = {
     "ddpg_her_sl": {"search": SearchConfig(branching=3, height=2)},
     "mpas": {"pas": PASConfig(hindsight=True, updates_per_cycle=3)},
+    "pas": {"pas": PASConfig(critic="joint", terminal_at_goal=False, updates_per_cycle=3)},
 }
 
 

@@ -1,0 +1,138 @@
+"""The thesis's experiments as data: experiments/NAME.toml -> cells of training runs.
+
+A file holds a description, `tasks`, `methods`, optional `libraries` (SL1 / SL2 / SL3, for
+the library methods), `seeds`, `epochs`, optional `[train]` overrides (TrainConfig fields)
+and `[options.METHOD.GROUP]` overrides (e.g. `[options.mpas.pas] critic = "joint"`):
+
+    description = "Fig. 6.5: container with a wall"
+    tasks = ["container_wall"]
+    methods = ["ddpg_her", "ddpg_her_sl"]
+    seeds = 3
+    epochs = 50
+
+Every name is checked when the file is read, so a typo fails before any training.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import tomllib
+from pathlib import Path
+from typing import Any
+
+EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
+LIBRARY_GROUP = {"ddpg_her_sl": "search", "pas": "pas", "mpas": "pas"}
+"""The option group that names a library method's skill library."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    """One training run of a sweep: a task, a method, its library and the budget."""
+
+    task: str
+    method: str
+    library: str | None
+    seeds: int
+    epochs: int
+    train: tuple[tuple[str, Any], ...] = ()
+    """TrainConfig overrides as (field, value) pairs (hashable)."""
+    options: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
+    """Option-group overrides: (group, ((field, value), ...))."""
+
+    @property
+    def name(self) -> str:
+        lib = f"-{self.library}" if self.library else ""
+        return f"{self.task}-{self.method}{lib}-s{self.seeds}-e{self.epochs}"
+
+    def run_args(self, out: str, progress: bool = True):
+        from mjx_skills import methods
+        from mjx_skills.config import TrainConfig
+        from mjx_skills.runner import RunArgs
+
+        spec = methods.get(self.method)
+        groups = {group: dict(fields) for group, fields in self.options}
+        if self.library:
+            groups.setdefault(LIBRARY_GROUP[self.method], {})["library"] = self.library
+        options = {g: dataclasses.replace(spec.options[g], **f) for g, f in groups.items()}
+        train = TrainConfig(task=self.task, epochs=self.epochs, seeds=self.seeds, out=out,
+                            progress=progress, **dict(self.train))  # fmt: skip
+        return RunArgs(train=train, method=self.method, options=options)
+
+
+@dataclasses.dataclass(frozen=True)
+class Experiment:
+    name: str
+    description: str
+    tasks: tuple[str, ...]
+    methods: tuple[str, ...]
+    libraries: tuple[str, ...] = ("SL1",)
+    seeds: int = 3
+    epochs: int = 50
+    train: dict[str, Any] = dataclasses.field(default_factory=dict)
+    options: dict[str, dict[str, dict[str, Any]]] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from mjx_skills import methods
+        from mjx_skills.config import TrainConfig
+        from mjx_skills.envs.registry import check_name
+        from mjx_skills.library import library_skills
+
+        for task in self.tasks:
+            check_name(task)
+        for method in self.methods:
+            methods.get(method)
+        for lib in self.libraries:
+            library_skills(lib)
+        if self.seeds < 1 or self.epochs < 1:
+            raise ValueError(f"experiment {self.name}: seeds and epochs must be >= 1")
+        valid = {f.name for f in dataclasses.fields(TrainConfig)} - {"task", "epochs", "seeds"}
+        if set(self.train) - valid:
+            raise ValueError(f"experiment {self.name}: unknown [train] field(s) "
+                             f"{sorted(set(self.train) - valid)}; valid: {sorted(valid)}")  # fmt: skip
+        for method, groups in self.options.items():
+            spec = methods.get(method)
+            for group, fields in groups.items():
+                if group not in spec.options:
+                    raise ValueError(f"experiment {self.name}: {method} has no option group "
+                                     f"{group!r}; valid: {sorted(spec.options)}")  # fmt: skip
+                dataclasses.replace(spec.options[group], **fields)  # checks the values
+
+    def with_budget(self, seeds: int | None = None, epochs: int | None = None) -> Experiment:
+        return dataclasses.replace(self, seeds=seeds or self.seeds, epochs=epochs or self.epochs)
+
+    def cells(self) -> list[Cell]:
+        out = []
+        for task, method in itertools.product(self.tasks, self.methods):
+            libs = self.libraries if method in LIBRARY_GROUP else (None,)
+            for lib in libs:
+                opts = tuple((g, tuple(sorted(f.items())))
+                             for g, f in sorted(self.options.get(method, {}).items()))  # fmt: skip
+                out.append(Cell(task, method, lib, self.seeds, self.epochs,
+                                tuple(sorted(self.train.items())), opts))  # fmt: skip
+        return out
+
+
+def names() -> list[str]:
+    return sorted(p.stem for p in EXPERIMENTS.glob("*.toml"))
+
+
+def load_experiment(name: str) -> Experiment:
+    path = EXPERIMENTS / f"{name}.toml"
+    if not path.exists():
+        raise ValueError(f"unknown experiment {name!r}; valid: {', '.join(names())}")
+    raw = tomllib.loads(path.read_text())
+    known = {f.name for f in dataclasses.fields(Experiment)} - {"name"}
+    if set(raw) - known:
+        raise ValueError(
+            f"{path}: unknown key(s) {sorted(set(raw) - known)}; valid: {sorted(known)}"
+        )
+    for key in ("tasks", "methods", "libraries"):
+        if key in raw:
+            raw[key] = tuple(raw[key])
+    return Experiment(name=name, **raw)
+
+
+def adhoc(name: str, tasks, methods, libraries=None) -> Experiment:
+    return Experiment(name=name, description="ad-hoc grid", tasks=tuple(tasks),
+                      methods=tuple(methods), libraries=tuple(libraries or ("SL1",)))  # fmt: skip

@@ -1,0 +1,219 @@
+"""Video of a trained run's final policy (seed 0) on fresh evaluation episodes.
+
+python -m mjx_skills.render RUN_DIR [--episodes 1] [--out RUN_DIR/render.gif] [--seed 10000]
+    [--width 480 --height 360] [--camera NAME] [--overwrite]
+
+The episodes run in the JAX env on the native backend (`rollout.run_episodes` with the
+method's deterministic evaluation behaviour, as `python -m mjx_skills.eval`); each state's
+joint positions are then set on one MjData and drawn offscreen by `mujoco.Renderer`: one
+frame per env step (0.15 s of simulated time), each episode's start state included.
+
+OpenGL: MuJoCo picks its GL backend from MUJOCO_GL when it is first imported. Without a
+display, use MUJOCO_GL=egl (Debian packages libegl1, libegl-mesa0 and libgl1-mesa-dri: a
+GPU's driver or Mesa's software renderer) or MUJOCO_GL=osmesa (libosmesa6; software only).
+This command sets MUJOCO_GL=egl when it is unset and keeps a value you set; when no GL
+context can be made it says so in one line and exits with status 1.
+
+Output: .gif (Pillow; identical consecutive frames, e.g. an arm at rest, are stored once with
+their durations added, so the playing time stays exact) or .mp4 (needs an ffmpeg executable,
+on PATH or from the imageio-ffmpeg package). An existing file is kept unless --overwrite.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import warnings
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from mjx_skills import compile_cache, rollout
+
+# Nothing imported above imports mujoco: it picks its GL backend on its first import, and
+# `main` sets MUJOCO_GL before that. Modules that import mujoco are imported in functions.
+
+DEFAULT_VIEW = {"lookat": (0.55, -0.2, 0.05), "distance": 1.8, "azimuth": 130.0, "elevation": -22.0}
+"""Free camera on the table, the cube and the arm (the scenes define no cameras)."""
+
+
+def ffmpeg_executable() -> str | None:
+    try:
+        import imageio_ffmpeg
+
+        return imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError):  # not installed, or its binary is missing
+        return shutil.which("ffmpeg")
+
+
+def output_path(run_dir: Path, out: Path | None, overwrite: bool) -> Path:
+    """The video's path, checked before any work: SystemExit with one line if unusable."""
+    out = out or run_dir / "render.gif"
+    if out.suffix.lower() not in (".gif", ".mp4"):
+        raise SystemExit(f"error: {out}: the video must be a .gif or an .mp4")
+    if out.exists() and not overwrite:
+        raise SystemExit(f"error: {out} exists; pass --overwrite or choose another --out")
+    if out.suffix.lower() == ".mp4" and ffmpeg_executable() is None:
+        raise SystemExit(
+            "error: .mp4 needs ffmpeg (install ffmpeg, or pip install imageio-ffmpeg); "
+            "or write a GIF: --out FILE.gif"
+        )
+    return out
+
+
+def gl_error() -> str | None:
+    """None if an offscreen OpenGL context can be made, else why not, in one line."""
+    try:
+        # glfw reports its failures as Python warnings too; the one line below says it all.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            import mujoco
+
+            mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 8, 8).close()
+    except Exception as err:  # noqa: BLE001 - each GL backend fails in its own way
+        why = (str(err).strip().splitlines() or [type(err).__name__])[0]
+        return (
+            f"no OpenGL context for offscreen rendering (MUJOCO_GL="
+            f"{os.environ.get('MUJOCO_GL', '')!r}: {why}); use MUJOCO_GL=egl (Debian: libegl1 "
+            "libegl-mesa0 libgl1-mesa-dri) or MUJOCO_GL=osmesa (Debian: libosmesa6)"
+        )
+    return None
+
+
+def record_episodes(run: Any, key: jax.Array, episodes: int) -> tuple[np.ndarray, ...]:
+    """Seed 0's evaluation episodes of a `mjx_skills.eval.TrainedRun` -> joint positions
+    (n, T + 1, nq), grip positions (n, T + 1, 3) and final success (n,)."""
+    from mjx_skills.envs.baxter import OBS_GRIP
+
+    qpos_of = run.env.backend.qpos
+
+    def fn(agent, aux, key):
+        behaviour = run.learner.evaluate(agent, aux)
+
+        # The scan returns observations, not states: the behaviour records each state's
+        # joints on the side (behaviour records are stacked over steps by the scan).
+        def step(pstate, k, state):
+            pstate, action, record = behaviour.step(pstate, k, state)
+            return pstate, action, {**record, "render_qpos": qpos_of(state.physics)}
+
+        recording = rollout.Behaviour(init=behaviour.init, step=step)
+        recorded, final, records = rollout.run_episodes(run.env, recording, key, episodes)
+        qpos = jnp.concatenate([records["render_qpos"], qpos_of(final.physics)[:, None]], 1)
+        return qpos, recorded.obs[..., OBS_GRIP], final.metrics["success"]
+
+    agent = jax.tree.map(lambda x: x[0], run.agents)
+    return tuple(np.asarray(x) for x in jax.jit(fn)(agent, run.aux, key))
+
+
+def draw_frames(
+    model: Any, qpos: np.ndarray, grip: np.ndarray, width: int, height: int, camera: str | None
+) -> np.ndarray:
+    """(frames, height, width, 3) uint8: each qpos set on one MjData and drawn."""
+    import mujoco
+
+    if camera is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0:
+        names = [model.camera(i).name for i in range(model.ncam)]
+        raise ValueError(f"no camera {camera!r} in the model (cameras: {names or 'none'})")
+    view = camera
+    if view is None:
+        view = mujoco.MjvCamera()
+        view.lookat[:] = DEFAULT_VIEW["lookat"]
+        view.distance = DEFAULT_VIEW["distance"]
+        view.azimuth, view.elevation = DEFAULT_VIEW["azimuth"], DEFAULT_VIEW["elevation"]
+    # The offscreen buffer bounds the image size (640 x 480 by default); this model is ours.
+    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+    data = mujoco.MjData(model)
+    frames = []
+    with mujoco.Renderer(model, height, width) as renderer:
+        for q, g in zip(qpos.reshape(-1, model.nq), grip.reshape(-1, 3), strict=True):
+            data.qpos[:] = q
+            # The weld's target (a faint red marker) follows the grip, as during the step.
+            data.mocap_pos[0] = g
+            mujoco.mj_forward(model, data)
+            renderer.update_scene(data, camera=view)
+            frames.append(renderer.render())
+    return np.stack(frames)
+
+
+def write_video(path: Path, frames: np.ndarray, frame_s: float) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix.lower() == ".gif":
+        from PIL import Image  # Pillow comes with matplotlib, a dependency
+
+        images = [Image.fromarray(f) for f in frames]
+        # GIF frame times are whole centiseconds.
+        frame_ms = 10 * max(1, round(100 * frame_s))
+        images[0].save(path, save_all=True, append_images=images[1:], duration=frame_ms, loop=0)
+        return
+    height, width = frames.shape[1:3]
+    command = [
+        ffmpeg_executable() or "ffmpeg", "-loglevel", "error", "-y",
+        "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{width}x{height}",
+        "-r", f"{1 / frame_s:.6f}", "-i", "-",
+        # yuv420p (what players expect) needs even sides.
+        "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p", str(path),
+    ]  # fmt: skip
+    done = subprocess.run(command, input=frames.tobytes(), capture_output=True)
+    if done.returncode != 0:
+        why = (done.stderr.decode(errors="replace").strip().splitlines() or ["?"])[-1]
+        raise SystemExit(f"error: ffmpeg could not write {path}: {why}")
+
+
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="python -m mjx_skills.render",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("run_dir", type=Path, help="a run directory (OUT/<task>/<method>/<time>)")
+    parser.add_argument("--episodes", type=_positive_int, default=1)
+    parser.add_argument("--out", type=Path, help="FILE.gif or FILE.mp4 (RUN_DIR/render.gif)")
+    parser.add_argument("--seed", type=int, default=10_000, help="seed of the episodes' starts")
+    parser.add_argument("--width", type=_positive_int, default=480)
+    parser.add_argument("--height", type=_positive_int, default=360)
+    parser.add_argument("--camera", help="a camera of the model (default: a free view)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = parse_args(argv)
+    out = output_path(args.run_dir, args.out, args.overwrite)
+    os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco's first import, below
+    compile_cache.enable()
+    problem = gl_error()
+    if problem:
+        raise SystemExit(f"error: {problem}")
+    from mjx_skills import eval as evaluation
+
+    try:
+        run = evaluation.load_trained(args.run_dir, physics="native")
+        qpos, grip, success = record_episodes(run, jax.random.PRNGKey(args.seed), args.episodes)
+        frames = draw_frames(run.env.model, qpos, grip, args.width, args.height, args.camera)
+    except (FileNotFoundError, ValueError, NotImplementedError) as err:
+        # Not a run, no checkpoint, an unknown camera, a missing skill library.
+        raise SystemExit(f"error: {err}") from None
+    frame_s = run.env.model.opt.timestep * run.env.config.n_substeps
+    write_video(out, frames, frame_s)
+    print(
+        f"{out}: {args.episodes} episode(s) of seed 0 at epoch {run.epoch}, {len(frames)} "
+        f"frames of {args.width}x{args.height}, {1 / frame_s:.2f} per second; "
+        f"success {[int(s) for s in success]}"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,202 @@
+"""Sweeps: the thesis's experiments (and ad-hoc grids) as cells of training runs.
+
+    python -m mjx_skills.sweep --experiment smoke
+    python -m mjx_skills.sweep --experiment fig6_3 --seeds 3 --epochs 50
+    python -m mjx_skills.sweep --tasks pick_move take_out --methods pas mpas --seeds 3
+    python -m mjx_skills.sweep --experiment fig6_3 --ray local        # cells as Ray tasks
+    python -m mjx_skills.sweep --list
+
+An experiment is a small TOML file in experiments/ (`experiments/NAME.toml`, read by
+`mjx_skills.experiments`): tasks x methods x libraries, a budget and option overrides. A
+cell is one (task, method, library) training run with all its seeds in one vmapped
+program (`runner.train_run`). Locally cells run one after another; with `--ray ADDRESS` or
+`--ray local` each cell is a Ray task (the `ray` extra).
+
+Resumable: a cell lives in SWEEP_DIR/CELL/ (default runs/sweeps/NAME/); a finished cell is
+skipped, an interrupted one resumes from its checkpoint, so starting a sweep again loses no
+finished cell. When every cell is done the results are aggregated into
+experiments/results/NAME.csv (mean and std of eval success over seeds per epoch) and NAME.jsonl
+(every seed's metrics); existing results are not overwritten without --overwrite.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import socket
+import sys
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from mjx_skills.experiments import Cell, Experiment, adhoc, load_experiment, names
+
+RESULTS = Path("experiments") / "results"
+CSV_FIELDS = ("experiment", "task", "method", "library", "epoch", "episodes", "env_steps",
+              "eval_success_mean", "eval_success_std", "seeds", "wall_s")  # fmt: skip
+
+
+def cell_run_dir(cell_dir: Path) -> Path | None:
+    """The one run directory under a cell's directory, if it was started."""
+    runs = sorted(cell_dir.glob("*/*/*/config.json"))
+    if len(runs) > 1:
+        raise RuntimeError(f"{cell_dir} holds {len(runs)} runs; a cell has one")
+    return runs[0].parent if runs else None
+
+
+def finished(run_dir: Path | None, cell: Cell) -> bool:
+    """Every seed of the cell logged its last epoch."""
+    if run_dir is None or not (run_dir / "metrics.jsonl").exists():
+        return False
+    from mjx_skills.logging import read_metrics
+
+    last = [r for r in read_metrics(run_dir) if r["epoch"] == cell.epochs]
+    return len({r["seed"] for r in last}) == cell.seeds
+
+
+def run_cell(cell: Cell, cell_dir: str, progress: bool = True) -> str:
+    """Train (or resume, or skip) one cell -> its run directory. Runs in this process or in a
+    Ray worker: imports JAX only here."""
+    from mjx_skills import compile_cache
+    from mjx_skills.runner import RunArgs, train_run
+
+    compile_cache.enable()
+    run_dir = cell_run_dir(Path(cell_dir))
+    if finished(run_dir, cell):
+        return str(run_dir)
+    args = RunArgs(resume=str(run_dir)) if run_dir else cell.run_args(cell_dir, progress)
+    return str(train_run(args))
+
+
+def aggregate(experiment: str, cells: list[Cell], run_dirs: list[Path]) -> tuple[list, list]:
+    """-> (CSV rows: mean / std over seeds per epoch and cell, JSONL rows: every seed)."""
+    from mjx_skills.logging import read_metrics
+
+    rows, per_seed = [], []
+    for cell, run_dir in zip(cells, run_dirs, strict=True):
+        metrics = read_metrics(run_dir)
+        tag = {"experiment": experiment, "task": cell.task, "method": cell.method,
+               "library": cell.library or "-"}  # fmt: skip
+        per_seed += [{**tag, **m} for m in metrics]
+        for epoch in sorted({m["epoch"] for m in metrics}):
+            at = [m for m in metrics if m["epoch"] == epoch]
+            success = np.array([m["eval_success"] for m in at])
+            rows.append({**tag, "epoch": epoch, "episodes": at[0]["episodes"],
+                         "env_steps": at[0]["env_steps"],
+                         "eval_success_mean": round(float(success.mean()), 4),
+                         "eval_success_std": round(float(success.std()), 4),
+                         "seeds": len(at), "wall_s": round(max(m["wall_s"] for m in at), 1)})  # fmt: skip
+    return rows, per_seed
+
+
+def write_results(name: str, rows: list, per_seed: list, results: Path) -> tuple[Path, Path]:
+    results.mkdir(parents=True, exist_ok=True)
+    csv_path, jsonl_path = results / f"{name}.csv", results / f"{name}.jsonl"
+    with csv_path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=CSV_FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+    jsonl_path.write_text("".join(json.dumps(r) + "\n" for r in per_seed))
+    return csv_path, jsonl_path
+
+
+def check_ray_address(address: str, timeout_s: float = 5.0) -> None:
+    """Fail fast, naming the address, when nothing listens there ('local' starts one)."""
+    if address in ("local", "auto"):
+        return
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    try:
+        with socket.create_connection((host or "127.0.0.1", int(port)), timeout=timeout_s):
+            return
+    except (OSError, ValueError) as err:
+        raise SystemExit(f"error: cannot reach the Ray cluster at {address!r}: {err}") from None
+
+
+def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str) -> list[str]:
+    check_ray_address(address)
+    try:
+        import ray
+    except ImportError:
+        raise SystemExit("error: --ray needs Ray: pip install -e '.[ray]'") from None
+    ray.init(address=None if address == "local" else address, include_dashboard=False,
+             log_to_driver=False, ignore_reinit_error=True)  # fmt: skip
+    task = ray.remote(num_cpus=1)(run_cell)
+    pending = {task.remote(c, str(d), False): c for c, d in zip(cells, dirs, strict=True)}
+    done_dirs: dict[Cell, str] = {}
+    with tqdm(total=len(cells), desc="cells", unit="cell") as bar:
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            cell = pending.pop(ready[0])
+            done_dirs[cell] = ray.get(ready[0])
+            bar.set_postfix_str(cell.name)
+            bar.update(1)
+    return [done_dirs[c] for c in cells]
+
+
+def run_sweep(
+    exp: Experiment, sweep_dir: Path, results: Path, overwrite: bool = False,
+    ray_address: str | None = None, progress: bool = True,
+) -> tuple[Path, Path]:  # fmt: skip
+    """Run every cell of `exp` (skipping finished ones) and write its results."""
+    csv_path = results / f"{exp.name}.csv"
+    if csv_path.exists() and not overwrite:
+        raise SystemExit(f"error: {csv_path} exists; pass --overwrite to replace it")
+    cells = exp.cells()
+    dirs = [sweep_dir / c.name for c in cells]
+    if ray_address:
+        run_dirs = run_cells_ray(cells, dirs, ray_address)
+    else:
+        run_dirs = []
+        for i, (cell, cell_dir) in enumerate(zip(cells, dirs, strict=True)):
+            state = "done" if finished(cell_run_dir(cell_dir), cell) else "running"
+            print(f"[cell {i + 1}/{len(cells)}] {cell.name}: {state}", file=sys.stderr)
+            run_dirs.append(run_cell(cell, str(cell_dir), progress))
+    rows, per_seed = aggregate(exp.name, cells, [Path(d) for d in run_dirs])
+    return write_results(exp.name, rows, per_seed, results)
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument("--experiment", help="an experiment of experiments/*.toml (see --list)")
+    p.add_argument("--list", action="store_true", help="list the experiments and exit")
+    p.add_argument("--tasks", nargs="+", help="ad-hoc grid: tasks (instead of --experiment)")
+    p.add_argument("--methods", nargs="+", help="ad-hoc grid: methods")
+    p.add_argument("--libraries", nargs="+", help="ad-hoc grid: SL1 / SL2 / SL3 (library methods)")
+    p.add_argument("--name", default="adhoc", help="ad-hoc grid: the results' name")
+    p.add_argument("--seeds", type=int, help="seeds per cell (overrides the experiment's)")
+    p.add_argument("--epochs", type=int, help="epochs per cell (overrides the experiment's)")
+    p.add_argument("--sweep-dir", type=Path, help="where cells run (default runs/sweeps/NAME)")
+    p.add_argument("--results", type=Path, default=RESULTS, help="where NAME.csv goes")
+    p.add_argument("--overwrite", action="store_true", help="replace existing NAME.csv/.jsonl")
+    p.add_argument("--ray", metavar="ADDRESS", help="run cells as Ray tasks: 'local' or HOST:PORT")
+    p.add_argument("--ray-address", dest="ray", help=argparse.SUPPRESS)
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    args = p.parse_args(argv)
+    if args.list:
+        for name in names():
+            print(f"{name:10s} {load_experiment(name).description}")
+        return
+    try:
+        if args.experiment and args.tasks:
+            raise ValueError("give --experiment or --tasks/--methods, not both")
+        if args.experiment:
+            exp = load_experiment(args.experiment)
+        elif args.tasks and args.methods:
+            exp = adhoc(args.name, args.tasks, args.methods, args.libraries)
+        else:
+            raise ValueError("give --experiment NAME (see --list) or --tasks ... --methods ...")
+        exp = exp.with_budget(seeds=args.seeds, epochs=args.epochs)
+    except ValueError as err:
+        raise SystemExit(f"error: {err}") from None
+    sweep_dir = args.sweep_dir or Path("runs") / "sweeps" / exp.name
+    csv_path, jsonl_path = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray,
+                                     not args.no_progress)  # fmt: skip
+    print(f"{len(exp.cells())} cells done; results: {csv_path}, {jsonl_path}")
+
+
+if __name__ == "__main__":
+    main()

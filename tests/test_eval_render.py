@@ -1,0 +1,128 @@
+"""eval and render of a trained run: fresh-episode success as the trainer measures it, the
+same starts on every backend, a video whose frames show the arm, one-line errors."""
+
+import json
+import subprocess
+import sys
+
+import jax
+import numpy as np
+import pytest
+
+from mjx_skills import eval as evaluation
+from mjx_skills import render, train
+from mjx_skills.config import DDPGConfig, TrainConfig
+from mjx_skills.ddpg_her import make_ddpg_her
+from mjx_skills.logging import read_metrics
+from mjx_skills.runner import RunArgs, save_config, train_and_keep
+
+# test_train's tiny budget: the persistent compile cache shares its compiled epoch.
+TINY = dict(task="transit", envs=2, cycles=2, updates_per_cycle=5, eval_episodes=2,
+            replay_capacity=2000, progress=False)  # fmt: skip
+EPISODES = 3
+SEED = 5
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """(run directory, final carry still in memory) of a one-epoch transit run."""
+    out = tmp_path_factory.mktemp("eval_render_runs")
+    return train_and_keep(RunArgs(train=TrainConfig(**TINY, epochs=1, out=str(out))))
+
+
+def eval_rows(capsys, run_dir, *flags):
+    evaluation.main([str(run_dir), *flags])
+    return [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+
+
+def test_eval_is_the_trainers_evaluation_of_the_checkpoint(trained, capsys, env_factory):
+    run_dir, carry = trained
+    row, summary = eval_rows(capsys, run_dir, "--episodes", str(EPISODES), "--seed", str(SEED))
+    assert 0.0 <= row["success"] <= 1.0
+    assert (row["seed"], row["epoch"], row["episodes"], row["physics"]) == (
+        0,
+        1,
+        EPISODES,
+        "native",
+    )
+    # The trainer's evaluation of the agent it ended with (not read back from disk), for the
+    # same key: a restore, key or behaviour that differed would move the final distance.
+    cfg = TrainConfig(**{**TINY, "eval_episodes": EPISODES})
+    env = env_factory("transit")
+    evaluate = train.make_evaluate(make_ddpg_her(env, cfg, DDPGConfig()), env, cfg)
+    key = jax.random.PRNGKey(SEED)
+    expected = jax.jit(jax.vmap(evaluate, in_axes=(0, None, None)))(carry.agent, None, key)
+    assert row["success"] == pytest.approx(float(expected["eval_success"][0]))
+    assert row["distance"] == pytest.approx(float(expected["eval_distance"][0]), rel=1e-5)
+    assert row["run_eval_success"] == read_metrics(run_dir)[-1]["eval_success"]
+    assert summary["seeds"] == 1 and summary["success"] == row["success"]
+    other, _ = eval_rows(capsys, run_dir, "--episodes", str(EPISODES), "--seed", str(SEED + 1))
+    assert other["distance"] != row["distance"], "another --seed must give other starts"
+
+
+def test_eval_on_gym_starts_where_native_starts(trained, capsys):
+    pytest.importorskip("gymnasium")
+    run_dir, _ = trained
+    flags = ("--episodes", str(EPISODES), "--seed", str(SEED))
+    native, _ = eval_rows(capsys, run_dir, *flags)
+    gym, _ = eval_rows(capsys, run_dir, *flags, "--physics", "gym")
+    assert gym["physics"] == "gym" and gym["success"] == native["success"]
+    # Same starts and the same mj_step physics: only float32 rounding between them.
+    assert gym["distance"] == pytest.approx(native["distance"], abs=1e-3)
+
+
+def test_eval_bad_input_is_one_line(trained, tmp_path, capsys):
+    run_dir, _ = trained
+    cases = {"not_a_run": "not a run directory", "no_checkpoint": "has no checkpoint"}
+    (tmp_path / "no_checkpoint").mkdir()
+    (tmp_path / "no_checkpoint" / "config.json").write_text((run_dir / "config.json").read_text())
+    for name, message in cases.items():
+        with pytest.raises(SystemExit) as exit_info:
+            evaluation.main([str(tmp_path / name)])
+        text = str(exit_info.value.code)
+        assert message in text and "\n" not in text  # a message: exit status 1
+    assert not (tmp_path / "no_checkpoint" / "checkpoints").exists(), "eval only reads"
+    # PAS / MPAS act through skills in the JAX env: refused on gym before anything loads.
+    (tmp_path / "mpas").mkdir()
+    save_config(tmp_path / "mpas", RunArgs(train=TrainConfig(**TINY), method="mpas"))
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_info:
+        evaluation.main([str(tmp_path / "mpas"), "--physics", "gym"])
+    err = capsys.readouterr().err.strip()
+    assert exit_info.value.code == 2 and "not supported on the gym adapter" in err
+    assert len(err.splitlines()) == 1
+
+
+def test_render_refuses_existing_files_and_other_formats(trained, tmp_path):
+    run_dir, _ = trained
+    existing = tmp_path / "video.gif"
+    existing.write_bytes(b"keep me")
+    for out, message in ((existing, "--overwrite"), (tmp_path / "video.avi", ".gif or an .mp4")):
+        with pytest.raises(SystemExit, match=message):
+            render.main([str(run_dir), "--out", str(out)])
+    assert existing.read_bytes() == b"keep me"
+
+
+def test_render_writes_a_gif_of_the_episode(trained, tmp_path, env_factory):
+    from PIL import Image, ImageSequence
+
+    run_dir, _ = trained
+    out = tmp_path / "episode.gif"
+    # A fresh process: this one imported mujoco (conftest) before MUJOCO_GL could be set,
+    # and MuJoCo picks its GL backend on import. Whether GL works is what render says.
+    command = [sys.executable, "-m", "mjx_skills.render", str(run_dir), "--out", str(out),
+               "--width", "64", "--height", "64"]  # fmt: skip
+    done = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    if done.returncode != 0 and "no OpenGL context" in done.stderr:
+        pytest.skip(done.stderr.strip())
+    assert done.returncode == 0, done.stderr
+    steps = env_factory("transit").episode_length
+    with Image.open(out) as gif:
+        frames = [np.asarray(f.convert("RGB"), np.float32) for f in ImageSequence.Iterator(gif)]
+        durations = [f.info["duration"] for f in ImageSequence.Iterator(gif)]
+    # One frame per state (start + each step), 0.15 s each; identical neighbours are merged
+    # into one frame of the summed duration, so the playing time counts them exactly.
+    assert sum(durations) == (steps + 1) * 150 and 2 <= len(frames) <= steps + 1
+    assert frames[0].shape == (64, 64, 3)
+    assert all(f.std() > 10 for f in frames), "a blank frame"
+    assert np.abs(frames[0] - frames[-1]).mean() > 0.5, "the arm did not move on screen"
