@@ -18,7 +18,7 @@ setup: $(STAMP)
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	PYTHONWARNINGS=ignore $(BIN)/pip install --quiet -e '.[dev,notebook]'
+	PYTHONWARNINGS=ignore $(BIN)/pip install --quiet -e '.[dev,notebook,ray]'
 	touch $(STAMP)
 
 # DDPG+HER+SL by default; it builds the skill library first if there is none.
@@ -30,8 +30,8 @@ train: setup
 skills: setup
 	$(BIN)/python -m mjx_skills.skills --out $(LIBRARY) $(ARGS)
 
+# The thesis's experiments: make sweep ARGS="--experiment fig6_3" (see --list).
 sweep: setup
-	@test -f mjx_skills/sweep.py || { echo "make sweep: mjx_skills/sweep.py is not built yet"; exit 1; }
 	$(BIN)/python -m mjx_skills.sweep $(ARGS)
 
 bench: setup
@@ -55,9 +55,9 @@ lint: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
+# Execute experiments/analysis.ipynb headless: analysis.executed.ipynb + experiments/figures/*.png.
 notebook: setup
-	@test -f experiments/analysis.ipynb || { echo "make notebook: experiments/analysis.ipynb is not written yet"; exit 1; }
-	$(BIN)/jupyter notebook experiments/analysis.ipynb
+	$(BIN)/python experiments/run_notebook.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache build *.egg-info

@@ -103,7 +103,8 @@ class Experiment:
 
     def cells(self) -> list[Cell]:
         out = []
-        for task, method in itertools.product(self.tasks, self.methods):
+        # Method by method, so an interrupted sweep has whole methods' results first.
+        for method, task in itertools.product(self.methods, self.tasks):
             libs = self.libraries if method in LIBRARY_GROUP else (None,)
             for lib in libs:
                 opts = tuple((g, tuple(sorted(f.items())))

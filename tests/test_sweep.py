@@ -1,0 +1,107 @@
+"""Sweeps: experiments are checked data, cells resume and are skipped when finished, results
+are aggregated over seeds and never overwritten unasked; cells also run as Ray tasks."""
+
+import csv
+import json
+
+import pytest
+
+from mjx_skills import sweep
+from mjx_skills.experiments import Experiment, load_experiment, names
+from mjx_skills.logging import read_metrics
+from mjx_skills.runner import train_run
+
+TINY = {"envs": 2, "cycles": 2, "updates_per_cycle": 3, "eval_episodes": 2,
+        "replay_capacity": 3000}  # fmt: skip
+
+
+def _tiny(epochs=2, seeds=2) -> Experiment:
+    return Experiment(name="tiny", description="test", tasks=("transit",), methods=("ddpg_her",),
+                      seeds=seeds, epochs=epochs, train=TINY)  # fmt: skip
+
+
+def test_the_thesis_experiments_are_valid_files():
+    assert {"smoke", "fig6_3", "fig6_4", "fig6_5"} <= set(names())
+    fig = load_experiment("fig6_3")
+    assert {(c.task, c.method) for c in fig.cells()} == {
+        (t, m) for t in ("pick_move", "put_in_container", "put_on", "take_out")
+        for m in ("ddpg_her", "pas", "mpas", "ddpg_her_sl")
+    }  # fmt: skip
+    ablation = load_experiment("fig6_4").cells()
+    assert sorted({c.library for c in ablation}) == ["SL1", "SL2", "SL3"]
+    args = ablation[0].run_args("out")
+    assert args.full_options()["search"].library == ablation[0].library
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--experiment", "fig9"], "valid: fig6_3"),
+        (["--tasks", "pick_moov", "--methods", "pas"], "valid: transit"),
+        (["--tasks", "pick_move", "--methods", "pass"], "valid: ddpg_her"),
+        (["--tasks", "pick_move", "--methods", "pas", "--libraries", "SL9"], "valid: SL1"),
+        (["--tasks", "pick_move"], "--methods"),
+    ],
+)
+def test_bad_names_list_the_valid_ones(argv, message, tmp_path):
+    with pytest.raises(SystemExit, match=message):
+        sweep.main([*argv, "--sweep-dir", str(tmp_path)])
+
+
+def test_an_unreachable_ray_cluster_fails_fast_naming_it():
+    with pytest.raises(SystemExit, match="127.0.0.1:9"):
+        sweep.check_ray_address("127.0.0.1:9", timeout_s=2.0)
+
+
+@pytest.fixture(scope="module")
+def finished_sweep(tmp_path_factory):
+    """A 2-cell-epoch sweep whose only cell was interrupted after epoch 1, then resumed."""
+    root = tmp_path_factory.mktemp("sweep")
+    exp = _tiny()
+    cell = exp.cells()[0]
+    cell_dir = root / "cells" / cell.name
+    first = train_run(cell.run_args(str(cell_dir), progress=False), stop_after=1)
+    paths = sweep.run_sweep(exp, root / "cells", root / "results", progress=False)
+    return root, exp, first, paths
+
+
+def test_an_interrupted_cell_resumes_in_its_own_run(finished_sweep):
+    root, exp, first, _ = finished_sweep
+    cell = exp.cells()[0]
+    assert sweep.cell_run_dir(root / "cells" / cell.name) == first
+    rows = read_metrics(first)
+    assert sorted((r["epoch"], r["seed"]) for r in rows) == [(1, 0), (1, 1), (2, 0), (2, 1)]
+
+
+def test_results_aggregate_the_seeds_of_every_epoch(finished_sweep):
+    _, _, first, (csv_path, jsonl_path) = finished_sweep
+    rows = list(csv.DictReader(csv_path.open()))
+    assert [int(r["epoch"]) for r in rows] == [1, 2]
+    per_seed = [json.loads(line) for line in jsonl_path.read_text().splitlines()]
+    for row in rows:
+        seeds = [s["eval_success"] for s in per_seed if s["epoch"] == int(row["epoch"])]
+        assert int(row["seeds"]) == len(seeds) == 2
+        assert float(row["eval_success_mean"]) == pytest.approx(sum(seeds) / 2, abs=1e-4)
+        assert row["task"] == "transit" and row["method"] == "ddpg_her"
+
+
+def test_a_finished_sweep_skips_its_cells_and_keeps_its_results(finished_sweep):
+    root, exp, first, (csv_path, _) = finished_sweep
+    before = (first / "metrics.jsonl").read_text()
+    with pytest.raises(SystemExit, match="--overwrite"):
+        sweep.run_sweep(exp, root / "cells", root / "results", progress=False)
+    sweep.run_sweep(exp, root / "cells", root / "results", overwrite=True, progress=False)
+    assert (first / "metrics.jsonl").read_text() == before  # nothing trained again
+    assert len(list((root / "cells").iterdir())) == 1
+
+
+def test_cells_run_as_ray_tasks(tmp_path):
+    ray = pytest.importorskip("ray")
+    exp = _tiny(epochs=1, seeds=1)
+    try:
+        csv_path, _ = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results",
+                                      ray_address="local", progress=False)  # fmt: skip
+    finally:
+        ray.shutdown()
+    rows = list(csv.DictReader(csv_path.open()))
+    assert [(r["epoch"], r["seeds"]) for r in rows] == [("1", "1")]
