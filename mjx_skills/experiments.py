@@ -10,6 +10,9 @@ and `[options.METHOD.GROUP]` overrides (e.g. `[options.mpas.pas] critic = "joint
     seeds = 3
     epochs = 50
 
+`kind = "library"` (Table 5.1) builds skill libraries instead, one cell per entry of
+`samples`; they share one work directory, so the skills are trained once.
+
 Every name is checked when the file is read, so a typo fails before any training.
 """
 
@@ -39,9 +42,13 @@ class Cell:
     """TrainConfig overrides as (field, value) pairs (hashable)."""
     options: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
     """Option-group overrides: (group, ((field, value), ...))."""
+    samples: int | None = None
+    """A library cell: build a skill library from this many runs per skill (Table 5.1)."""
 
     @property
     def name(self) -> str:
+        if self.samples:
+            return f"library-n{self.samples}"
         lib = f"-{self.library}" if self.library else ""
         return f"{self.task}-{self.method}{lib}-s{self.seeds}-e{self.epochs}"
 
@@ -64,8 +71,11 @@ class Cell:
 class Experiment:
     name: str
     description: str
-    tasks: tuple[str, ...]
-    methods: tuple[str, ...]
+    tasks: tuple[str, ...] = ()
+    methods: tuple[str, ...] = ()
+    kind: str = "train"
+    """'train': tasks x methods x libraries; 'library': one skill library per `samples`."""
+    samples: tuple[int, ...] = ()
     libraries: tuple[str, ...] = ("SL1",)
     seeds: int = 3
     epochs: int = 50
@@ -78,6 +88,12 @@ class Experiment:
         from mjx_skills.envs.registry import check_name
         from mjx_skills.library import library_skills
 
+        if self.kind not in ("train", "library"):
+            raise ValueError(
+                f"experiment {self.name}: unknown kind {self.kind!r}; valid: train, library"
+            )
+        if self.kind == "library" and (not self.samples or min(self.samples) < 100):
+            raise ValueError(f"experiment {self.name}: a library experiment needs samples >= 100")
         for task in self.tasks:
             check_name(task)
         for method in self.methods:
@@ -102,6 +118,8 @@ class Experiment:
         return dataclasses.replace(self, seeds=seeds or self.seeds, epochs=epochs or self.epochs)
 
     def cells(self) -> list[Cell]:
+        if self.kind == "library":
+            return [Cell("-", "library", None, 1, 1, samples=n) for n in self.samples]
         out = []
         # Method by method, so an interrupted sweep has whole methods' results first.
         for method, task in itertools.product(self.methods, self.tasks):
@@ -128,7 +146,7 @@ def load_experiment(name: str) -> Experiment:
         raise ValueError(
             f"{path}: unknown key(s) {sorted(set(raw) - known)}; valid: {sorted(known)}"
         )
-    for key in ("tasks", "methods", "libraries"):
+    for key in ("tasks", "methods", "libraries", "samples"):
         if key in raw:
             raw[key] = tuple(raw[key])
     return Experiment(name=name, **raw)

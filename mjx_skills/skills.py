@@ -205,15 +205,16 @@ def _position_error_cm(predicted: np.ndarray, actual: np.ndarray, pos: slice) ->
     return float(100 * np.mean(np.linalg.norm(predicted[:, pos] - actual[:, pos], axis=-1)))
 
 
-def build(args: SkillsArgs) -> Path:
-    """Every phase -> the library directory."""
+def build(args: SkillsArgs, work: Path | None = None) -> Path:
+    """Every phase -> the library directory. `work`: where the skills' training runs live
+    (default beside the library); libraries sharing it share their trained skills."""
     out = Path(args.out).resolve()
     if out.exists():
         raise FileExistsError(
             f"{out} exists; a library is never overwritten (choose another --out, or delete it)"
         )
     library.remove_partials(out)
-    work = out.with_name(f".{out.name}.work")
+    work = work or out.with_name(f".{out.name}.work")
     config, timings, success, agents, runs, data = args.config, {}, {}, [], {}, {}
     for name in SKILLS:
         t0 = time.time()
@@ -248,20 +249,30 @@ def _by_source(d: dict[str, np.ndarray]) -> dict[str, float]:
             for i in np.unique(d["source"])}  # fmt: skip
 
 
-def write_table(directory: Path, path: Path = TABLE) -> Path:
-    """Table 5.1 from a library's manifest, with the thesis's figures beside ours."""
+def table_rows(directory: Path) -> list[dict]:
+    """Table 5.1 rows (one per skill) from a library's manifest, the thesis's beside ours."""
     manifest = library.read_manifest(directory)
+    return [
+        {"skill": name, "memory_error_cm": f"{m['memory_error_cm']:.2f}",
+         "model_error_cm": f"{m['model_error_cm']:.2f}",
+         "thesis_memory_cm": THESIS_CM[name][0], "thesis_model_cm": THESIS_CM[name][1],
+         "classifier_accuracy": f"{m['classifier_accuracy']:.3f}",
+         "classifier_auc": f"{m['classifier_auc']:.3f}",
+         "samples": manifest["samples"][name]["total"],
+         "skill_success": f"{manifest['skill_success'][name]:.3f}"}
+        for name, m in manifest["models"].items()
+    ]  # fmt: skip
+
+
+def write_table(directory: Path | list[Path], path: Path = TABLE) -> Path:
+    """Table 5.1 of one library (or several: one block of rows each) as CSV."""
+    rows = [r for d in ([directory] if isinstance(directory, Path) else directory)
+            for r in table_rows(d)]  # fmt: skip
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["skill", "memory_error_cm", "model_error_cm", "thesis_memory_cm",
-                    "thesis_model_cm", "classifier_accuracy", "classifier_auc", "samples",
-                    "skill_success"])  # fmt: skip
-        for name, m in manifest["models"].items():
-            w.writerow([name, f"{m['memory_error_cm']:.2f}", f"{m['model_error_cm']:.2f}",
-                        *THESIS_CM[name], f"{m['classifier_accuracy']:.3f}",
-                        f"{m['classifier_auc']:.3f}", manifest["samples"][name]["total"],
-                        f"{manifest['skill_success'][name]:.3f}"])  # fmt: skip
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
     return path
 
 

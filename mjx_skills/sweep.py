@@ -40,6 +40,8 @@ CSV_FIELDS = ("experiment", "task", "method", "library", "epoch", "episodes", "e
 
 def cell_run_dir(cell_dir: Path) -> Path | None:
     """The one run directory under a cell's directory, if it was started."""
+    if cell_dir.name.startswith("library-"):
+        return cell_dir / "library"
     runs = sorted(cell_dir.glob("*/*/*/config.json"))
     if len(runs) > 1:
         raise RuntimeError(f"{cell_dir} holds {len(runs)} runs; a cell has one")
@@ -47,7 +49,9 @@ def cell_run_dir(cell_dir: Path) -> Path | None:
 
 
 def finished(run_dir: Path | None, cell: Cell) -> bool:
-    """Every seed of the cell logged its last epoch."""
+    """Every seed of the cell logged its last epoch (a library cell: the library is saved)."""
+    if cell.samples:
+        return run_dir is not None and (run_dir / "manifest.json").exists()
     if run_dir is None or not (run_dir / "metrics.jsonl").exists():
         return False
     from mjx_skills.logging import read_metrics
@@ -66,8 +70,21 @@ def run_cell(cell: Cell, cell_dir: str, progress: bool = True) -> str:
     run_dir = cell_run_dir(Path(cell_dir))
     if finished(run_dir, cell):
         return str(run_dir)
+    if cell.samples:
+        return str(build_library(cell, Path(cell_dir), progress))
     args = RunArgs(resume=str(run_dir)) if run_dir else cell.run_args(cell_dir, progress)
     return str(train_run(args))
+
+
+def build_library(cell: Cell, cell_dir: Path, progress: bool) -> Path:
+    """A library from `cell.samples` runs per skill; the sweep's libraries share one work
+    directory (the trained skills), and a library is written whole or not at all."""
+    from mjx_skills.config import LibraryConfig
+    from mjx_skills.skills import SkillsArgs, build
+
+    args = SkillsArgs(config=LibraryConfig(samples=cell.samples), out=str(cell_dir / "library"),
+                      progress=progress)  # fmt: skip
+    return build(args, work=cell_dir.parent / "skills.work")
 
 
 def aggregate(experiment: str, cells: list[Cell], run_dirs: list[Path]) -> tuple[list, list]:
@@ -153,6 +170,10 @@ def run_sweep(
             state = "done" if finished(cell_run_dir(cell_dir), cell) else "running"
             print(f"[cell {i + 1}/{len(cells)}] {cell.name}: {state}", file=sys.stderr)
             run_dirs.append(run_cell(cell, str(cell_dir), progress))
+    if exp.kind == "library":
+        from mjx_skills.skills import write_table
+
+        return write_table([Path(d) for d in run_dirs], csv_path), csv_path
     rows, per_seed = aggregate(exp.name, cells, [Path(d) for d in run_dirs])
     return write_results(exp.name, rows, per_seed, results)
 

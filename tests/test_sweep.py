@@ -105,3 +105,15 @@ def test_cells_run_as_ray_tasks(tmp_path):
         ray.shutdown()
     rows = list(csv.DictReader(csv_path.open()))
     assert [(r["epoch"], r["seeds"]) for r in rows] == [("1", "1")]
+
+
+def test_the_table_experiment_builds_one_library_per_data_size(tmp_path):
+    table = load_experiment("table5_1")
+    cells = table.cells()
+    assert [c.samples for c in cells] == list(table.samples) and len(cells) >= 2
+    assert len({c.name for c in cells}) == len(cells)
+    assert not sweep.finished(sweep.cell_run_dir(tmp_path / cells[0].name), cells[0])
+    with pytest.raises(ValueError, match="samples"):
+        Experiment(name="t", description="", kind="library")
+    with pytest.raises(ValueError, match="valid: train, library"):
+        Experiment(name="t", description="", kind="tables")
