@@ -1,7 +1,7 @@
-"""Video of a trained run's final policy (seed 0) on fresh evaluation episodes.
+"""Video of a trained run's final policy (one trained seed) on fresh evaluation episodes.
 
 python -m mjx_skills.render RUN_DIR [--episodes 1] [--out RUN_DIR/render.gif] [--seed 10000]
-    [--width 480 --height 360] [--camera NAME] [--overwrite]
+    [--run-seed 0] [--width 480 --height 360] [--camera NAME] [--overwrite]
 
 The episodes run in the JAX env on the native backend (`rollout.run_episodes` with the
 method's deterministic evaluation behaviour, as `python -m mjx_skills.eval`); each state's
@@ -85,8 +85,10 @@ def gl_error() -> str | None:
     return None
 
 
-def record_episodes(run: Any, key: jax.Array, episodes: int) -> tuple[np.ndarray, ...]:
-    """Seed 0's evaluation episodes of a `mjx_skills.eval.TrainedRun` -> joint positions
+def record_episodes(
+    run: Any, key: jax.Array, episodes: int, run_seed: int = 0
+) -> tuple[np.ndarray, ...]:
+    """Trained seed `run_seed`'s evaluation episodes of a `mjx_skills.eval.TrainedRun` -> joint positions
     (n, T + 1, nq), grip positions (n, T + 1, 3) and final success (n,)."""
     from mjx_skills.envs.baxter import OBS_GRIP
 
@@ -106,7 +108,10 @@ def record_episodes(run: Any, key: jax.Array, episodes: int) -> tuple[np.ndarray
         qpos = jnp.concatenate([records["render_qpos"], qpos_of(final.physics)[:, None]], 1)
         return qpos, recorded.obs[..., OBS_GRIP], final.metrics["success"]
 
-    agent = jax.tree.map(lambda x: x[0], run.agents)
+    n_seeds = jax.tree.leaves(run.agents)[0].shape[0]
+    if not 0 <= run_seed < n_seeds:
+        raise ValueError(f"--run-seed {run_seed}: the run trained seeds 0..{n_seeds - 1}")
+    agent = jax.tree.map(lambda x: x[run_seed], run.agents)
     return tuple(np.asarray(x) for x in jax.jit(fn)(agent, run.aux, key))
 
 
@@ -182,6 +187,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--episodes", type=_positive_int, default=1)
     parser.add_argument("--out", type=Path, help="FILE.gif or FILE.mp4 (RUN_DIR/render.gif)")
     parser.add_argument("--seed", type=int, default=10_000, help="seed of the episodes' starts")
+    parser.add_argument("--run-seed", type=int, default=0, help="which trained seed acts")
     parser.add_argument("--width", type=_positive_int, default=480)
     parser.add_argument("--height", type=_positive_int, default=360)
     parser.add_argument("--camera", help="a camera of the model (default: a free view)")
@@ -201,7 +207,9 @@ def main(argv: list[str] | None = None) -> None:
 
     try:
         run = evaluation.load_trained(args.run_dir, physics="native")
-        qpos, grip, success = record_episodes(run, jax.random.PRNGKey(args.seed), args.episodes)
+        qpos, grip, success = record_episodes(
+            run, jax.random.PRNGKey(args.seed), args.episodes, args.run_seed
+        )
         frames = draw_frames(run.env.model, qpos, grip, args.width, args.height, args.camera)
     except (FileNotFoundError, ValueError, NotImplementedError) as err:
         # Not a run, no checkpoint, an unknown camera, a missing skill library.
@@ -209,7 +217,7 @@ def main(argv: list[str] | None = None) -> None:
     frame_s = run.env.model.opt.timestep * run.env.config.n_substeps
     write_video(out, frames, frame_s)
     print(
-        f"{out}: {args.episodes} episode(s) of seed 0 at epoch {run.epoch}, {len(frames)} "
+        f"{out}: {args.episodes} episode(s) of seed {args.run_seed} at epoch {run.epoch}, {len(frames)} "
         f"frames of {args.width}x{args.height}, {1 / frame_s:.2f} per second; "
         f"success {[int(s) for s in success]}"
     )

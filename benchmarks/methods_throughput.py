@@ -1,0 +1,63 @@
+"""Env steps per second of one training epoch of every method, against DDPG+HER's measured
+in the same run (the default budget: 4 envs x 4 cycles + 20 eval episodes per epoch).
+
+    python benchmarks/methods_throughput.py [--task take_out] [--epochs 3]
+
+One JSON row per method, then a summary row with each method's ratio to DDPG+HER. Library
+methods use the committed skill library (experiments/skill_library). Compile time is
+reported apart; the epochs are timed after one warm-up epoch.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import jax
+
+from mjx_skills import compile_cache, methods
+from mjx_skills.config import EnvConfig, TrainConfig
+from mjx_skills.train import build
+
+
+def measure(method: str, task: str, epochs: int) -> dict:
+    cfg = TrainConfig(task=task, progress=False)
+    spec = methods.get(method)
+    aux = spec.load_aux(spec.options) if spec.load_aux else None
+    env, _, epoch_fn, carry = build(method, cfg, EnvConfig(), None, aux)
+    t0 = time.perf_counter()
+    epoch_fn = epoch_fn.lower(carry, aux).compile()
+    compile_s = time.perf_counter() - t0
+    carry, metrics = epoch_fn(carry, aux)  # warm-up
+    jax.block_until_ready(metrics)
+    t0 = time.perf_counter()
+    for _ in range(epochs):
+        carry, metrics = epoch_fn(carry, aux)
+    jax.block_until_ready(metrics)
+    wall = time.perf_counter() - t0
+    steps = epochs * (cfg.envs * cfg.cycles + cfg.eval_episodes) * env.episode_length
+    return {"method": method, "task": task, "cores": os.cpu_count(),
+            "env_steps_per_s": round(steps / wall, 1), "epoch_s": round(wall / epochs, 3),
+            "compile_s": round(compile_s, 1)}  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--task", default="take_out")
+    parser.add_argument("--epochs", type=int, default=3)
+    parser.add_argument("--methods", nargs="+", default=list(methods.METHODS))
+    args = parser.parse_args()
+    compile_cache.enable()
+    rows = {m: measure(m, args.task, args.epochs) for m in args.methods}
+    for row in rows.values():
+        print(json.dumps(row))
+    if "ddpg_her" in rows:
+        ref = rows["ddpg_her"]["env_steps_per_s"]
+        ratios = {m: round(r["env_steps_per_s"] / ref, 3) for m, r in rows.items()}
+        print(json.dumps({"task": args.task, "ratio_to_ddpg_her": ratios}))
+
+
+if __name__ == "__main__":
+    main()
