@@ -13,9 +13,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import time
 
-import jax
+from train_throughput import timed_epochs  # the sibling script (benchmarks/ is on sys.path)
 
 from mjx_skills import compile_cache, methods
 from mjx_skills.config import EnvConfig, TrainConfig
@@ -27,16 +26,7 @@ def measure(method: str, task: str, epochs: int) -> dict:
     spec = methods.get(method)
     aux = spec.load_aux(spec.options) if spec.load_aux else None
     env, _, epoch_fn, carry = build(method, cfg, EnvConfig(), None, aux)
-    t0 = time.perf_counter()
-    epoch_fn = epoch_fn.lower(carry, aux).compile()
-    compile_s = time.perf_counter() - t0
-    carry, metrics = epoch_fn(carry, aux)  # warm-up
-    jax.block_until_ready(metrics)
-    t0 = time.perf_counter()
-    for _ in range(epochs):
-        carry, metrics = epoch_fn(carry, aux)
-    jax.block_until_ready(metrics)
-    wall = time.perf_counter() - t0
+    compile_s, wall = timed_epochs(epoch_fn, carry, aux, epochs)
     steps = epochs * (cfg.envs * cfg.cycles + cfg.eval_episodes) * env.episode_length
     return {"method": method, "task": task, "cores": os.cpu_count(),
             "env_steps_per_s": round(steps / wall, 1), "epoch_s": round(wall / epochs, 3),

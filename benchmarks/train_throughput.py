@@ -25,20 +25,25 @@ from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
 from mjx_skills.train import build
 
 
+def timed_epochs(epoch_fn, carry, aux, epochs: int) -> tuple[float, float]:
+    """-> (compile seconds, wall seconds of `epochs` epochs after one warm-up epoch)."""
+    t0 = time.perf_counter()
+    epoch_fn = epoch_fn.lower(carry, aux).compile()
+    compile_s = time.perf_counter() - t0
+    carry, metrics = epoch_fn(carry, aux)  # warm-up
+    jax.block_until_ready(metrics)
+    t0 = time.perf_counter()
+    for _ in range(epochs):
+        carry, metrics = epoch_fn(carry, aux)
+    jax.block_until_ready(metrics)
+    return compile_s, time.perf_counter() - t0
+
+
 def measure(task: str, envs: int, epochs: int, physics: str) -> dict:
     cfg = TrainConfig(task=task, envs=envs, cycles=1, updates_per_cycle=40, eval_episodes=envs,
                       replay_capacity=200_000, progress=False)  # fmt: skip
     env, _, epoch_fn, carry = build("ddpg_her", cfg, EnvConfig(physics=physics))
-    t0 = time.perf_counter()
-    epoch_fn = epoch_fn.lower(carry, None).compile()
-    compile_s = time.perf_counter() - t0
-    carry, _ = epoch_fn(carry, None)  # warm-up
-    jax.block_until_ready(carry)
-    t0 = time.perf_counter()
-    for _ in range(epochs):
-        carry, metrics = epoch_fn(carry, None)
-    jax.block_until_ready(metrics)
-    wall = time.perf_counter() - t0
+    compile_s, wall = timed_epochs(epoch_fn, carry, None, epochs)
     steps = epochs * (cfg.envs * cfg.cycles + cfg.eval_episodes) * env.episode_length
     updates = epochs * cfg.cycles * cfg.updates_per_cycle
     return {

@@ -16,7 +16,6 @@ starts from the same states.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import sys
@@ -28,6 +27,7 @@ import numpy as np
 
 from mjx_skills import compile_cache, ddpg, methods, rollout
 from mjx_skills.checkpoint import Checkpoints
+from mjx_skills.cli_args import run_parser
 from mjx_skills.envs.registry import make
 from mjx_skills.learner import Learner
 from mjx_skills.logging import read_metrics
@@ -188,23 +188,9 @@ def summarize(rows: list[dict]) -> dict:
     }
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
-        prog="python -m mjx_skills.eval",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument("run_dir", type=Path, help="a run directory (OUT/<task>/<method>/<time>)")
-    parser.add_argument("--episodes", type=_positive_int, default=50, help="episodes per seed")
+def parse_args(argv: list[str] | None):
+    parser = run_parser("python -m mjx_skills.eval", __doc__, episodes=50)
     parser.add_argument("--physics", choices=("native", "mjx", "gym"), default="native")
-    parser.add_argument("--seed", type=int, default=10_000, help="seed of the episodes' starts")
     return parser.parse_args(argv)
 
 

@@ -21,7 +21,6 @@ on PATH or from the imageio-ffmpeg package). An existing file is kept unless --o
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import subprocess
@@ -34,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_skills import compile_cache, rollout
+from mjx_skills.cli_args import positive_int, run_parser
 
 # Nothing imported above imports mujoco: it picks its GL backend on its first import, and
 # `main` sets MUJOCO_GL before that. Modules that import mujoco are imported in functions.
@@ -170,26 +170,12 @@ def write_video(path: Path, frames: np.ndarray, frame_s: float) -> None:
         raise SystemExit(f"error: ffmpeg could not write {path}: {why}")
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
-        prog="python -m mjx_skills.render",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument("run_dir", type=Path, help="a run directory (OUT/<task>/<method>/<time>)")
-    parser.add_argument("--episodes", type=_positive_int, default=1)
+def parse_args(argv: list[str] | None):
+    parser = run_parser("python -m mjx_skills.render", __doc__, episodes=1)
     parser.add_argument("--out", type=Path, help="FILE.gif or FILE.mp4 (RUN_DIR/render.gif)")
-    parser.add_argument("--seed", type=int, default=10_000, help="seed of the episodes' starts")
     parser.add_argument("--run-seed", type=int, default=0, help="which trained seed acts")
-    parser.add_argument("--width", type=_positive_int, default=480)
-    parser.add_argument("--height", type=_positive_int, default=360)
+    parser.add_argument("--width", type=positive_int, default=480)
+    parser.add_argument("--height", type=positive_int, default=360)
     parser.add_argument("--camera", help="a camera of the model (default: a free view)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     return parser.parse_args(argv)
