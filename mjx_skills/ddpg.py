@@ -170,18 +170,23 @@ def _td_target(state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfi
     o2, g = nbatch["next_obs"], nbatch["goal"]
     a2 = _bounded(state, actor_module(state, config).apply(state.target_actor_params, o2, g))
     q2 = critic_module(config).apply(state.target_critic_params, o2, g, a2)
+    return target_from_next_value(nbatch, q2, config)
+
+
+def target_from_next_value(
+    nbatch: dict[str, jax.Array], q2: jax.Array, config: DDPGConfig
+) -> jax.Array:
+    """r + gamma * Q' (Q' dropped after an optional `terminal`: PAS's goal reached),
+    optionally clipped to [-1 / (1 - gamma), 0]; no gradient flows through it."""
     reward = nbatch["reward"]
     if reward.shape != q2.shape:  # (B, 1) rewards would silently broadcast to (B, B)
         raise ValueError(f"reward shape {reward.shape} != Q shape {q2.shape}")
-    y = reward + config.gamma * bootstrap(nbatch, q2)
+    if "terminal" in nbatch:
+        q2 = q2 * (1.0 - nbatch["terminal"])
+    y = reward + config.gamma * q2
     if config.clip_target:
         y = jnp.clip(y, -1.0 / (1.0 - config.gamma), 0.0)
     return jax.lax.stop_gradient(y)
-
-
-def bootstrap(nbatch: dict[str, jax.Array], q2: jax.Array) -> jax.Array:
-    """Q' where the transition goes on; 0 after an optional `terminal` (PAS: goal reached)."""
-    return q2 * (1.0 - nbatch["terminal"]) if "terminal" in nbatch else q2
 
 
 def td_target(state: DDPGState, batch: dict[str, jax.Array], config: DDPGConfig) -> jax.Array:

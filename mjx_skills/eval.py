@@ -25,14 +25,14 @@ from typing import Any
 import jax
 import numpy as np
 
-from mjx_skills import compile_cache, ddpg, methods, rollout
+from mjx_skills import compile_cache, ddpg, methods
 from mjx_skills.checkpoint import Checkpoints
 from mjx_skills.cli_args import run_parser
 from mjx_skills.envs.registry import make
 from mjx_skills.learner import Learner
 from mjx_skills.logging import read_metrics
 from mjx_skills.runner import RunArgs, load_config
-from mjx_skills.train import init_carry, seed_keys
+from mjx_skills.train import init_carry, make_evaluate, seed_keys
 
 FLAT_METHODS = ("ddpg_her", "ddpg_her_sl")
 """Methods whose evaluation behaviour is the flat DDPG actor: the ones gym can replay."""
@@ -97,15 +97,11 @@ def evaluate_jax(run: TrainedRun, key: jax.Array, episodes: int) -> tuple[np.nda
     """-> (success, final distance) per seed, means over `episodes` episodes from `key`:
     what `train.make_evaluate` computes, every seed on the same starts."""
 
-    def one_seed(agent, aux, key):
-        behaviour = run.learner.evaluate(agent, aux)
-        _, final, _ = rollout.run_episodes(run.env, behaviour, key, episodes)
-        return final.metrics["success"].mean(), final.metrics["distance"].mean()
-
+    train = dataclasses.replace(run.args.train, eval_episodes=episodes)
+    evaluate = make_evaluate(run.learner, run.env, train)
     # aux (the library) is an argument, not a constant baked into the program, as in training.
-    fn = jax.jit(jax.vmap(one_seed, in_axes=(0, None, None)))
-    success, distance = fn(run.agents, run.aux, key)
-    return np.asarray(success), np.asarray(distance)
+    metrics = jax.jit(jax.vmap(evaluate, in_axes=(0, None, None)))(run.agents, run.aux, key)
+    return np.asarray(metrics["eval_success"]), np.asarray(metrics["eval_distance"])
 
 
 def reset_keys(key: jax.Array, episodes: int) -> jax.Array:

@@ -1,22 +1,24 @@
 """PAS and MPAS (thesis ch. 4): a DDPG meta-controller over the skill library in a
 parameterized action space (Hausknecht & Stone 2016, the thesis's reference [21]).
 
-The meta action is one vector in [-1, 1]^(K + 3K): a score per skill and every skill's goal
-parameters (padded to 3). The executed skill is the best-scoring one among those allowed
-to start here (transfer only with the cube in hand), its goal `goal_from_param` of its own
-parameters. The critic sees the whole vector; the actor is linear and kept inside the
-bounds by inverting gradients (`ddpg` with bounds='invert'). The chosen skill's library
-policy drives the arm until the skill reaches its goal (transfer: or drops the cube) or
-`skill_steps` env steps pass, and the meta-controller chooses again. The task keeps its env-step budget, so
+The meta-controller chooses a skill among those allowed to start here (transfer only with
+the cube in hand) and the goal its parameters name (`goal_from_param`). Two critics
+(`PASConfig.critic`): 'per_skill' (default, `pdqn`) values each skill on its own goal;
+'joint' (the thesis's) sees one vector in [-1, 1]^(K + 3K), a score per skill and every
+skill's parameters padded to 3, with a linear actor kept inside the bounds by inverting
+gradients (`ddpg` with bounds='invert'). The chosen skill's library policy drives the arm
+until the skill reaches its goal (transfer: or drops the cube) or `skill_steps` env steps
+pass, and the meta-controller chooses again. The task keeps its env-step budget, so
 episodes and env steps (the curves' x-axes) count exactly as DDPG+HER's do.
 
 Meta transitions are kept in episode layout: the episode itself plus, per meta step j, the
 env steps where it began and ended and its meta action. A sampled transition is
 (s_start, g, a, s_end) with the task's sparse reward at s_end (-1 / 0), one discount per
-meta step. MPAS relabels the goal with the achieved goal at the end of a later meta step
-of the same episode (hindsight at the coarse level) and recomputes the reward; PAS keeps
-the task's goal. Both see the goal as an input: our tasks draw a goal per episode, where
-the single-goal formulation of [21] fixes one, so PAS differs from MPAS by hindsight alone.
+meta step, terminal where the goal is reached (`terminal_at_goal`). MPAS relabels the goal
+with the achieved goal at the end of a later meta step of the same episode (hindsight at
+the coarse level) and recomputes the reward; PAS keeps the task's goal. Both see the goal
+as an input: our tasks draw a goal per episode, where the single-goal formulation of [21]
+fixes one, so PAS differs from MPAS by hindsight alone.
 """
 
 from __future__ import annotations

@@ -58,10 +58,12 @@ def init(key, obs_dim: int, goal_dim: int, n_skills: int, config: DDPGConfig) ->
 
 
 def _all_goals(state, actor_params, obs, o, g, goals: SkillGoals, config):
-    """-> (raw goals (B, K, goal_dim), their normalised form) of the actor's parameters."""
+    """-> (the actor's parameters (B, K, PARAM_DIM), the raw goals they name (B, K,
+    goal_dim), those goals normalised)."""
     out = ddpg.actor_module(state, config).apply(actor_params, o, g)
-    raw = goals(out.reshape(*out.shape[:-1], -1, PARAM_DIM), obs)
-    return raw, _norm_goal(state, raw, config)
+    params = out.reshape(*out.shape[:-1], -1, PARAM_DIM)
+    raw = goals(params, obs)
+    return params, raw, _norm_goal(state, raw, config)
 
 
 def _norm_goal(state, goal, config):
@@ -86,7 +88,7 @@ def choose(state, obs, goal, allowed, goals: SkillGoals, config: DDPGConfig, key
     """-> (skill (B,) int32, its goal (B, goal_dim), stored action (B, K + goal_dim)): greedy
     over the allowed skills, or exploring when a key is given."""
     o, g = ddpg.normalize_inputs(state, obs, goal, config)
-    raw, norm = _all_goals(state, state.actor_params, obs, o, g, goals, config)
+    params, raw, norm = _all_goals(state, state.actor_params, obs, o, g, goals, config)
     q = jnp.where(allowed, _values(state.critic_params, o, g, norm, config), -jnp.inf)
     skill = jnp.argmax(q, axis=-1)
     if key is not None:
@@ -94,8 +96,6 @@ def choose(state, obs, goal, allowed, goals: SkillGoals, config: DDPGConfig, key
         uniform = jnp.where(allowed, jax.random.uniform(k_skill, allowed.shape), -1.0)
         explore = jax.random.uniform(k_pick, skill.shape) < config.random_eps
         skill = jnp.where(explore, jnp.argmax(uniform, axis=-1), skill)
-        params = ddpg.act(state, obs, goal, config)
-        params = params.reshape(*params.shape[:-1], -1, PARAM_DIM)
         noisy = jnp.clip(
             params + config.noise_sigma * jax.random.normal(k_noise, params.shape), -1, 1
         )
@@ -119,15 +119,12 @@ def update(
 def _step(state: ddpg.DDPGState, nb, goals: SkillGoals, config: DDPGConfig):
     critic = ddpg.critic_module(config)
     o, g, o2 = nb["obs"], nb["goal"], nb["next_obs"]
-    _, goals2 = _all_goals(
+    _, _, goals2 = _all_goals(
         state, state.target_actor_params, nb["raw_next_obs"], o2, g, goals, config
     )
     q2 = _values(state.target_critic_params, o2, g, goals2, config)
     q2 = jnp.max(jnp.where(nb["next_allowed"], q2, -jnp.inf), axis=-1)
-    y = nb["reward"] + config.gamma * ddpg.bootstrap(nb, q2)
-    if config.clip_target:
-        y = jnp.clip(y, -1.0 / (1.0 - config.gamma), 0.0)
-    y = jax.lax.stop_gradient(y)
+    y = ddpg.target_from_next_value(nb, q2, config)
     action = _critic_input(state, nb["action"], config)
 
     def critic_loss_fn(params):
@@ -140,10 +137,7 @@ def _step(state: ddpg.DDPGState, nb, goals: SkillGoals, config: DDPGConfig):
     weight = nb["allowed"] / jnp.maximum(jnp.sum(nb["allowed"], -1, keepdims=True), 1)
 
     def actor_loss_fn(params):
-        pi = ddpg.actor_module(state, config).apply(params, o, g)
-        norm = _norm_goal(
-            state, goals(pi.reshape(*pi.shape[:-1], -1, PARAM_DIM), nb["raw_obs"]), config
-        )
+        pi, _, norm = _all_goals(state, params, nb["raw_obs"], o, g, goals, config)
         q_pi = jnp.sum(weight * _values(critic_params, o, g, norm, config), -1)
         return -jnp.mean(q_pi) + config.action_l2 * jnp.mean(pi**2), None
 

@@ -111,7 +111,9 @@ def record_episodes(
     n_seeds = jax.tree.leaves(run.agents)[0].shape[0]
     if not 0 <= run_seed < n_seeds:
         raise ValueError(f"--run-seed {run_seed}: the run trained seeds 0..{n_seeds - 1}")
-    agent = jax.tree.map(lambda x: x[run_seed], run.agents)
+    from mjx_skills.eval import seed_agent
+
+    agent = seed_agent(run, run_seed)
     return tuple(np.asarray(x) for x in jax.jit(fn)(agent, run.aux, key))
 
 

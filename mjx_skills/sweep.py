@@ -155,8 +155,9 @@ def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str) -> list[str
 def run_sweep(
     exp: Experiment, sweep_dir: Path, results: Path, overwrite: bool = False,
     ray_address: str | None = None, progress: bool = True,
-) -> tuple[Path, Path]:  # fmt: skip
-    """Run every cell of `exp` (skipping finished ones) and write its results."""
+) -> tuple[Path, ...]:  # fmt: skip
+    """Run every cell of `exp` (skipping finished ones) and write its results -> their files
+    (NAME.csv and NAME.jsonl; a library experiment: NAME.csv)."""
     csv_path = results / f"{exp.name}.csv"
     if csv_path.exists() and not overwrite:
         raise SystemExit(f"error: {csv_path} exists; pass --overwrite to replace it")
@@ -173,7 +174,7 @@ def run_sweep(
     if exp.kind == "library":
         from mjx_skills.skills import write_table
 
-        return write_table([Path(d) for d in run_dirs], csv_path), csv_path
+        return (write_table([Path(d) for d in run_dirs], csv_path),)
     rows, per_seed = aggregate(exp.name, cells, [Path(d) for d in run_dirs])
     return write_results(exp.name, rows, per_seed, results)
 
@@ -214,9 +215,8 @@ def main(argv: list[str] | None = None) -> None:
     except ValueError as err:
         raise SystemExit(f"error: {err}") from None
     sweep_dir = args.sweep_dir or Path("runs") / "sweeps" / exp.name
-    csv_path, jsonl_path = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray,
-                                     not args.no_progress)  # fmt: skip
-    print(f"{len(exp.cells())} cells done; results: {csv_path}, {jsonl_path}")
+    paths = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray, not args.no_progress)
+    print(f"{len(exp.cells())} cells done; results: {', '.join(map(str, paths))}")
 
 
 if __name__ == "__main__":
