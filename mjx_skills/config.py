@@ -221,6 +221,13 @@ class LibraryConfig:
     """Hidden widths of the coarse dynamics model (thesis: 3 x 1000)."""
     model_lr: float = 1e-3
     """Adam learning rate of the coarse model (thesis: 1e-5, for 3 x 1000 units)."""
+    anchor: Literal["start", "goal"] = "start"
+    """What the coarse model's prediction and a recalled memory are measured from. 'start'
+    (the thesis): the model predicts the change from the start state, memory returns the
+    stored run's terminal state as it was. 'goal': the positions a skill moves (grip and
+    cube) are predicted, and recalled, relative to the skill's goal - a successful run ends
+    within the success threshold of it wherever the goal lies - and the neighbour's offset
+    from its own goal is carried over to the query's."""
     classifier_hidden: tuple[int, ...] = (50, 10)
     """Hidden widths of the success classifier (thesis: 50, 10)."""
     classifier_lr: float = 1e-3
@@ -250,6 +257,7 @@ class LibraryConfig:
             _check(len(widths) > 0 and all(w > 0 for w in widths), name, "need >= 1 positive width")
         for name in ("model_lr", "classifier_lr"):
             _check(getattr(self, name) > 0, name, "must be > 0")
+        _check(self.anchor in ("start", "goal"), "anchor", "valid: start, goal")
 
 
 @dataclasses.dataclass(frozen=True)

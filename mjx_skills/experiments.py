@@ -11,7 +11,8 @@ and `[options.METHOD.GROUP]` overrides (e.g. `[options.mpas.pas] critic = "joint
     epochs = 50
 
 `kind = "library"` (Table 5.1) builds skill libraries instead, one cell per entry of
-`samples`; they share one work directory, so the skills are trained once.
+`samples`, with optional `[library]` overrides (LibraryConfig fields, e.g. `anchor =
+"goal"`); they share one work directory, so the skills are trained once.
 
 Every name is checked when the file is read, so a typo fails before any training.
 """
@@ -48,7 +49,8 @@ class Cell:
     @property
     def name(self) -> str:
         if self.samples:
-            return f"library-n{self.samples}"
+            fields = dict(self.options).get("library", ())
+            return f"library-n{self.samples}" + "".join(f"-{k}-{v}" for k, v in fields)
         lib = f"-{self.library}" if self.library else ""
         return f"{self.task}-{self.method}{lib}-s{self.seeds}-e{self.epochs}"
 
@@ -81,6 +83,8 @@ class Experiment:
     epochs: int = 50
     train: dict[str, Any] = dataclasses.field(default_factory=dict)
     options: dict[str, dict[str, dict[str, Any]]] = dataclasses.field(default_factory=dict)
+    library: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """A library experiment's LibraryConfig overrides (besides `samples`)."""
 
     def __post_init__(self) -> None:
         from mjx_skills import methods
@@ -94,6 +98,16 @@ class Experiment:
             )
         if self.kind == "library" and (not self.samples or min(self.samples) < 100):
             raise ValueError(f"experiment {self.name}: a library experiment needs samples >= 100")
+        if self.library:
+            from mjx_skills.config import LibraryConfig
+
+            if self.kind != "library":
+                raise ValueError(f'experiment {self.name}: [library] needs kind = "library"')
+            valid = {f.name for f in dataclasses.fields(LibraryConfig)} - {"samples"}
+            if set(self.library) - valid:
+                raise ValueError(f"experiment {self.name}: unknown [library] field(s) "
+                                 f"{sorted(set(self.library) - valid)}; valid: {sorted(valid)}")  # fmt: skip
+            LibraryConfig(**self.library)  # bad values name their field here
         for task in self.tasks:
             check_name(task)
         for method in self.methods:
@@ -119,7 +133,8 @@ class Experiment:
 
     def cells(self) -> list[Cell]:
         if self.kind == "library":
-            return [Cell("-", "library", None, 1, 1, samples=n) for n in self.samples]
+            opts = (("library", tuple(sorted(self.library.items()))),) if self.library else ()
+            return [Cell("-", "library", None, 1, 1, options=opts, samples=n) for n in self.samples]
         out = []
         # Method by method, so an interrupted sweep has whole methods' results first.
         for method, task in itertools.product(self.methods, self.tasks):

@@ -134,7 +134,8 @@ class SkillLibrary:
         net = CoarseDynamics(obs.shape[-1], tuple(self.config.model_hidden))
         delta_n = _select(jax.vmap(net.apply)(self.dynamics, o, g), skill)
         delta = delta_n * self.delta_norm.std[skill] + self.delta_norm.mean[skill]
-        return consistent(obs, jnp.where(self.state_mask[skill], obs + delta, obs))
+        base = anchor_point(self.config.anchor, obs, goal)
+        return consistent(obs, jnp.where(self.state_mask[skill], base + delta, obs))
 
     def recall(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Memory-based terminal observation (B, obs_dim): the terminal state of the nearest
@@ -147,8 +148,17 @@ class SkillLibrary:
             d = jnp.sum(q * q, -1)[:, None] - 2.0 * q @ k.T + jnp.sum(k * k, -1)[None]
             return jnp.argmin(jnp.where(valid[None], d, jnp.inf), axis=1)
 
-        idx = jax.vmap(nearest)(self.memory_keys, self.memory_valid, self.memory_key_mask)
-        found = self.memory_next[skill, _select(idx, skill)]
+        idx = _select(
+            jax.vmap(nearest)(self.memory_keys, self.memory_valid, self.memory_key_mask), skill
+        )
+        found = self.memory_next[skill, idx]
+        if self.config.anchor == "goal":  # carry the neighbour's offset from its own goal over
+            key, d = self.memory_keys[skill, idx], obs.shape[-1]
+            found = (
+                found
+                - anchor_point("goal", key[:, :d], key[:, d:])
+                + anchor_point("goal", obs, goal)
+            )
         return consistent(obs, jnp.where(self.state_mask[skill], found, obs))
 
     def goal_from_param(self, skill: jax.Array, param: jax.Array, obs: jax.Array) -> jax.Array:
@@ -183,6 +193,14 @@ def allowed_skills(names: tuple[str, ...], held: jax.Array) -> jax.Array:
 def _select(stacked: jax.Array, skill: jax.Array) -> jax.Array:
     """stacked (K, B, ...), skill (B,) -> (B, ...): row skill[b] for env b."""
     return jnp.take_along_axis(stacked, skill.reshape(1, -1, *[1] * (stacked.ndim - 2)), 0)[0]
+
+
+def anchor_point(anchor: str, obs: jax.Array, goal: jax.Array) -> jax.Array:
+    """(..., obs_dim): what a terminal state is measured from (LibraryConfig.anchor): the
+    start state, or ('goal') the start state with its grip and cube positions at the goal."""
+    if anchor == "start":
+        return obs
+    return jnp.asarray(obs).at[..., OBS_GRIP].set(goal).at[..., OBS_OBJECT].set(goal)
 
 
 def consistent(start: jax.Array, predicted: jax.Array) -> jax.Array:

@@ -110,7 +110,7 @@ def fit_library(names, agents, data, config: LibraryConfig, progress: bool):
     s0, goal, s_T, success = stack("s0"), stack("goal"), stack("s_T"), stack("success")
     obs_dim = s0.shape[-1]
     x = np.concatenate([s0, goal], axis=-1)
-    delta = s_T - s0
+    delta = s_T - np.asarray(library.anchor_point(config.anchor, s0, goal))
     train_w = np.ones((K, N), np.float32)
     train_w[:, N - n_val :] = 0.0
     in_stats = [fit.standardize(x[k], train_w[k]) for k in range(K)]
@@ -259,6 +259,7 @@ def table_rows(directory: Path) -> list[dict]:
          "classifier_accuracy": f"{m['classifier_accuracy']:.3f}",
          "classifier_auc": f"{m['classifier_auc']:.3f}",
          "samples": manifest["samples"][name]["total"],
+         "anchor": manifest["library"].get("anchor", "start"),
          "skill_success": f"{manifest['skill_success'][name]:.3f}"}
         for name, m in manifest["models"].items()
     ]  # fmt: skip

@@ -82,8 +82,9 @@ def build_library(cell: Cell, cell_dir: Path, progress: bool) -> Path:
     from mjx_skills.config import LibraryConfig
     from mjx_skills.skills import SkillsArgs, build
 
-    args = SkillsArgs(config=LibraryConfig(samples=cell.samples), out=str(cell_dir / "library"),
-                      progress=progress)  # fmt: skip
+    overrides = dict(dict(cell.options).get("library", ()))
+    args = SkillsArgs(config=LibraryConfig(samples=cell.samples, **overrides),
+                      out=str(cell_dir / "library"), progress=progress)  # fmt: skip
     return build(args, work=cell_dir.parent / "skills.work")
 
 

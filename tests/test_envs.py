@@ -1,8 +1,8 @@
 """Every registered env: jitted reset and random steps under vmap, determinism, bad input."""
 
 import jax
-import mujoco
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 import pytest
 

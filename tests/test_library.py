@@ -133,6 +133,28 @@ def test_recall_returns_the_exact_neighbour_over_the_skills_own_dimensions(const
     assert not np.allclose(np.asarray(got)[0, :3], np.asarray(lib.memory_next[0, 3, :3]))
 
 
+def test_goal_anchored_recall_carries_the_neighbours_offset_from_its_goal(constructed):
+    """anchor = "goal": the grip (transit) ends where the neighbour ended relative to its own
+    goal, moved to the query's goal; the model's change is added to the goal, not the start."""
+    lib = constructed.replace(config=dataclasses.replace(SMALL, anchor="goal"))
+    stored = np.asarray(lib.memory_keys)
+    query = stored[0, 1].copy()
+    query[OBS:] += np.array([0.01, -0.02, 0.005], np.float32)  # nearest is still slot 1
+    obs, goal = jnp.asarray(query[None, :OBS]), jnp.asarray(query[None, OBS:])
+    got = np.asarray(lib.recall(jnp.array([0]), obs, goal))[0]
+    nb = np.asarray(lib.memory_next[0, 1])
+    np.testing.assert_allclose(got[OBS_GRIP], nb[OBS_GRIP] - stored[0, 1, OBS:] + query[OBS:],
+                               atol=1e-5)  # fmt: skip
+    np.testing.assert_allclose(got[OBS_OBJECT], query[OBS_OBJECT], rtol=1e-6)  # not moved
+    # The model: zero networks predict the mean change, measured from the goal.
+    zero = jax.tree.map(jnp.zeros_like, lib.dynamics)
+    d_mean = np.asarray(lib.delta_norm.mean)
+    for anchor, base in (("start", query[:3]), ("goal", query[OBS:])):
+        m = lib.replace(dynamics=zero, config=dataclasses.replace(SMALL, anchor=anchor))
+        pred = np.asarray(m.next_state(jnp.array([0]), obs, goal))[0]
+        np.testing.assert_allclose(pred[OBS_GRIP], base + d_mean[0, :3], atol=1e-5)
+
+
 def test_each_env_runs_its_own_skill(constructed):
     lib = constructed
     rng = np.random.default_rng(1)

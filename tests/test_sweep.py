@@ -117,3 +117,19 @@ def test_the_table_experiment_builds_one_library_per_data_size(tmp_path):
         Experiment(name="t", description="", kind="library")
     with pytest.raises(ValueError, match="valid: train, library"):
         Experiment(name="t", description="", kind="tables")
+
+
+def test_a_library_experiment_carries_its_library_overrides():
+    anchored = load_experiment("table5_1_anchor")
+    cells = anchored.cells()
+    assert [c.name for c in cells] == [f"library-n{n}-anchor-goal" for n in anchored.samples]
+    assert not {c.name for c in cells} & {c.name for c in load_experiment("table5_1").cells()}
+    with pytest.raises(ValueError, match="anchor"):
+        Experiment(name="t", description="", kind="library", samples=(100,),
+                   library={"anchor": "middle"})  # fmt: skip
+    with pytest.raises(ValueError, match="unknown .library. field.*valid:"):
+        Experiment(name="t", description="", kind="library", samples=(100,),
+                   library={"anchr": "goal"})  # fmt: skip
+    with pytest.raises(ValueError, match="kind"):
+        Experiment(name="t", description="", tasks=("pick_move",), methods=("ddpg_her",),
+                   library={"anchor": "goal"})  # fmt: skip
