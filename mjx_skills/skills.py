@@ -194,6 +194,9 @@ def evaluate_models(lib: library.SkillLibrary, x, s_T, success) -> dict[str, dic
         out[name] = {
             "memory_error_cm": _position_error_cm(memory[ok], s_T[k][ok], pos),
             "model_error_cm": _position_error_cm(model[ok], s_T[k][ok], pos),
+            # The trivial predictor: a successful run ends at its goal (within the threshold).
+            "goal_error_cm": float(100 * np.mean(np.linalg.norm(
+                np.asarray(goal)[ok] - s_T[k][ok][:, pos], axis=-1))),
             "classifier_accuracy": float(np.mean((prob > 0.5) == ok)),
             "classifier_auc": fit.auc(prob, ok), "held_out": int(len(ok)),
             "held_out_successes": int(ok.sum()),
@@ -255,6 +258,7 @@ def table_rows(directory: Path) -> list[dict]:
     return [
         {"skill": name, "memory_error_cm": f"{m['memory_error_cm']:.2f}",
          "model_error_cm": f"{m['model_error_cm']:.2f}",
+         "goal_error_cm": f"{m['goal_error_cm']:.2f}" if "goal_error_cm" in m else "",
          "thesis_memory_cm": THESIS_CM[name][0], "thesis_model_cm": THESIS_CM[name][1],
          "classifier_accuracy": f"{m['classifier_accuracy']:.3f}",
          "classifier_auc": f"{m['classifier_auc']:.3f}",
