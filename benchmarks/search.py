@@ -6,13 +6,16 @@ the thesis's (17 / 71 / 286 s at branching 5 / 10 / 15, height 3).
 One JSON row per (K, batch): a decision is one env's best first edge. `episode_search_s`
 is the search time one env's 50-step episode costs when `searches_per_episode` decisions
 search (DDPG+HER+SL at eps = 1 searched at 20-26 % of the steps on pick_move, i.e. 10-13 of
-50; the default 10 is the thesis's "skills run for up to 10 steps"). The last line is the
-row for K = 5, batch 256.
+50; the default 10 is the thesis's "skills run for up to 10 steps"). Every size is timed
+with the default leaf states (`leaf_state="predicted"`: the coarse model on every level)
+and with `leaf_state="goal"` (the last level's states are the skills' goals, no model).
+The last line is the default's row for K = 5, batch 256.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import time
@@ -26,8 +29,8 @@ from mjx_skills.envs import make
 THESIS_EPISODE_S = {5: 17.0, 10: 71.0, 15: 286.0}
 
 
-def measure(lib, env, obs, goal, K: int, batch: int, repeats: int = 3) -> dict:
-    cfg = SearchConfig(branching=K)
+def measure(lib, env, obs, goal, K: int, batch: int, leaf: str, repeats: int = 3) -> dict:
+    cfg = SearchConfig(branching=K, leaf_state=leaf)
     fn = jax.jit(lambda o, g, k: search.search(lib, cfg, env, o, g, k))
     o, g = obs[:batch], goal[:batch]
     t0 = time.perf_counter()
@@ -38,7 +41,8 @@ def measure(lib, env, obs, goal, K: int, batch: int, repeats: int = 3) -> dict:
         t0 = time.perf_counter()
         jax.block_until_ready(fn(o, g, jax.random.PRNGKey(i + 1)))
         times.append(time.perf_counter() - t0)
-    return {"K": K, "batch": batch, "search_s": min(times), "compile_s": round(compile_s, 1),
+    return {"K": K, "batch": batch, "leaf_state": leaf, "search_s": min(times),
+            "compile_s": round(compile_s, 1),
             "edges_per_env": sum(K**h for h in range(1, cfg.height + 1))}  # fmt: skip
 
 
@@ -54,8 +58,8 @@ def main() -> None:
     state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), 256))
     grid = [(5, 1), (5, 256), (10, 1), (10, 256), (15, 1), (15, 16)]
     last = None
-    for K, batch in grid:
-        row = measure(lib, env, state.obs, state.desired_goal, K, batch)
+    for (K, batch), leaf in itertools.product(grid, ("goal", "predicted")):
+        row = measure(lib, env, state.obs, state.desired_goal, K, batch, leaf)
         per_decision = row["search_s"] / batch
         episode = per_decision * args.searches_per_episode
         row.update(decisions_per_s=round(1.0 / per_decision, 1), episode_search_s=round(episode, 5),
@@ -63,7 +67,7 @@ def main() -> None:
                    device=jax.default_backend())  # fmt: skip
         row["search_s"] = round(row["search_s"], 4)
         print(json.dumps(row), flush=True)
-        if (K, batch) == (5, 256):
+        if (K, batch, leaf) == (5, 256, "predicted"):  # the default search
             last = row
     print(json.dumps(last))
 

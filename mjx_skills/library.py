@@ -137,6 +137,15 @@ class SkillLibrary:
         base = anchor_point(self.config.anchor, obs, goal)
         return consistent(obs, jnp.where(self.state_mask[skill], base + delta, obs))
 
+    def at_goal(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """The terminal observation (B, obs_dim) of a run that ends exactly at its goal: the
+        positions the skill moves (the grip; the cube too for grasp and transfer) at the
+        goal, everything else as it was. No network: the search's cheap leaf state."""
+        positions = np.zeros(obs.shape[-1], bool)
+        positions[OBS_GRIP] = positions[OBS_OBJECT] = True
+        moved = self.state_mask[skill] & positions
+        return consistent(obs, jnp.where(moved, anchor_point("goal", obs, goal), obs))
+
     def recall(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Memory-based terminal observation (B, obs_dim): the terminal state of the nearest
         stored (start, goal) over the skill's own dimensions; other dimensions copied."""

@@ -6,7 +6,7 @@ goals just above the object, grasp goals its lift height, transfer goals near th
 goal. Each edge is scored in one batched call per level for all envs and nodes at once:
 the classifier's success probability (edges at or below `prune_below` are pruned), the
 skill's critic value Q^i(s, g, pi^i(s, g)), and the next state from the coarse model (or
-memory). A path's utility is U = sum_c gamma^c Q_c + gamma^C v(leaf); every node of the
+memory; on the last level optionally the skill's goal itself, `leaf_state`). A path's utility is U = sum_c gamma^c Q_c + gamma^C v(leaf); every node of the
 tree may end a path. The search returns the first (skill, goal) of the best path per env,
 and flags envs whose every first edge was pruned.
 """
@@ -107,7 +107,8 @@ def search(
         sk, g = skill.reshape(rows), goal.reshape(rows, 3)
         prob = lib.success_prob(sk, s_rep, g)
         q = lib.q(sk, s_rep, g)
-        nxt = next_fn(sk, s_rep, g)
+        leaf_only = level == cfg.height - 1 and cfg.leaf_state == "goal"
+        nxt = (lib.at_goal if leaf_only else next_fn)(sk, s_rep, g)
         shape = (B, n * b)
         valid = (
             jnp.repeat(alive, b, axis=1)

@@ -155,6 +155,19 @@ def test_goal_anchored_recall_carries_the_neighbours_offset_from_its_goal(constr
         np.testing.assert_allclose(pred[OBS_GRIP], base + d_mean[0, :3], atol=1e-5)
 
 
+def test_at_goal_moves_only_what_the_skill_moves(constructed):
+    rng = np.random.default_rng(2)
+    obs = jnp.asarray(rng.normal(size=(2, OBS)).astype(np.float32))
+    goal = jnp.asarray(rng.normal(size=(2, GOAL)).astype(np.float32))
+    got = np.asarray(constructed.at_goal(jnp.array([0, 1]), obs, goal))
+    # transit: the grip at the goal, the cube where it was; grasp: both at the goal.
+    np.testing.assert_allclose(got[0, OBS_GRIP], goal[0], rtol=1e-6)
+    np.testing.assert_allclose(got[0, OBS_OBJECT], obs[0, OBS_OBJECT], rtol=1e-6)
+    np.testing.assert_allclose(got[1, OBS_OBJECT], goal[1], rtol=1e-6)
+    np.testing.assert_allclose(got[:, OBS_REL], got[:, OBS_OBJECT] - got[:, OBS_GRIP], atol=1e-6)
+    np.testing.assert_allclose(got[:, 11:], np.asarray(obs)[:, 11:], rtol=1e-6)
+
+
 def test_each_env_runs_its_own_skill(constructed):
     lib = constructed
     rng = np.random.default_rng(1)

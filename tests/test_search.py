@@ -101,6 +101,28 @@ def test_one_level_search_returns_the_known_best_edge(env):
     assert not np.any(found.all_pruned)
 
 
+@dataclasses.dataclass(frozen=True)
+class GoalLeafLibrary(KnownLibrary):
+    """The coarse model must not be asked: with leaf_state = "goal" a one-level tree's
+    leaves are the skills' goals."""
+
+    def next_state(self, skill, obs, goal):
+        raise AssertionError("the coarse model was called for a leaf")
+
+    at_goal = KnownLibrary.next_state
+
+
+def test_goal_leaves_skip_the_model_and_score_the_goals(env):
+    cfg = SearchConfig(height=1, branching=6, leaf_state="goal")
+    obs, goal = states(8, held=False)
+    key = jax.random.PRNGKey(3)
+    found = search.search(GoalLeafLibrary(), cfg, env, obs, goal, key)
+    want = search.search(KnownLibrary(), dataclasses.replace(cfg, leaf_state="predicted"),
+                         env, obs, goal, key)  # fmt: skip
+    np.testing.assert_array_equal(found.skill, want.skill)
+    np.testing.assert_allclose(found.utility, want.utility, rtol=1e-6)
+
+
 def test_skills_follow_the_grasp_state_and_pruned_edges_are_never_chosen(env):
     cfg = SearchConfig()
     run = jax.jit(lambda lib, o, g, k: search.search(lib, cfg, env, o, g, k), static_argnums=0)
