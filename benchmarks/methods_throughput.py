@@ -3,7 +3,8 @@ in the same run (the default budget: 4 envs x 4 cycles + 20 eval episodes per ep
 
     python benchmarks/methods_throughput.py [--task take_out] [--epochs 3]
 
-One JSON row per method, then a summary row with each method's ratio to DDPG+HER. Library
+One JSON row per method (and DDPG+HER+SL again with `--search.leaf-state goal`), then a
+summary row with each one's ratio to DDPG+HER. Library
 methods use the committed skill library (experiments/skill_library). Compile time is
 reported apart; the epochs are timed after one warm-up epoch.
 """
@@ -11,6 +12,7 @@ reported apart; the epochs are timed after one warm-up epoch.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 
@@ -21,11 +23,15 @@ from mjx_skills.config import EnvConfig, TrainConfig
 from mjx_skills.train import build
 
 
-def measure(method: str, task: str, epochs: int) -> dict:
+def measure(method: str, task: str, epochs: int, leaf_state: str | None = None) -> dict:
+    """One method's epochs; `leaf_state` (DDPG+HER+SL only) overrides the search's."""
     cfg = TrainConfig(task=task, progress=False)
     spec = methods.get(method)
-    aux = spec.load_aux(spec.options) if spec.load_aux else None
-    env, _, epoch_fn, carry = build(method, cfg, EnvConfig(), None, aux)
+    options = dict(spec.options)
+    if leaf_state:
+        options["search"] = dataclasses.replace(options["search"], leaf_state=leaf_state)
+    aux = spec.load_aux(options) if spec.load_aux else None
+    env, _, epoch_fn, carry = build(method, cfg, EnvConfig(), options, aux)
     compile_s, wall = timed_epochs(epoch_fn, carry, aux, epochs)
     steps = epochs * (cfg.envs * cfg.cycles + cfg.eval_episodes) * env.episode_length
     return {"method": method, "task": task, "cores": os.cpu_count(),
@@ -41,6 +47,11 @@ def main() -> None:
     args = parser.parse_args()
     compile_cache.enable()
     rows = {m: measure(m, args.task, args.epochs) for m in args.methods}
+    if "ddpg_her_sl" in rows:  # the search's cheap leaves (`--search.leaf-state goal`)
+        rows["ddpg_her_sl_leaf_goal"] = {
+            **measure("ddpg_her_sl", args.task, args.epochs, "goal"),
+            "method": "ddpg_her_sl_leaf_goal",
+        }
     for row in rows.values():
         print(json.dumps(row))
     if "ddpg_her" in rows:
