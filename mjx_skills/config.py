@@ -300,6 +300,20 @@ class SearchConfig:
     """... and this far above its centre (m): where the grasp skill starts."""
     transfer_goal_noise: float = 0.03
     """Transfer goals are sampled within +- this (m) of the task goal."""
+    waypoint_share: float = 0.0
+    """Share of transfer goals sampled anywhere in the transfer skill's goal box instead of
+    near the task goal: waypoints, so that a path may go round an obstacle (0: the thesis)."""
+    stall_memory: int = 0
+    """Obstacles each env remembers within an episode where a transit or transfer stalled;
+    the search prunes moving edges whose path passes near one (0: off, the thesis). See
+    `mjx_skills/stalls.py` and README, "Fig. 6.5"."""
+    stall_step: float = 0.003
+    """A running transit/transfer whose gripper moved less than this (m) in one step, short
+    of its goal, has stalled: it ends, and the obstacle is remembered ..."""
+    stall_ahead: float = 0.03
+    """... this far (m) beyond the gripper towards the skill's goal ..."""
+    stall_radius: float = 0.03
+    """... and prunes edges whose straight path passes within this (m) of it."""
     skill_steps: int = 10
     """w: a searched skill runs until it terminates or for this many steps (thesis: 10)."""
     eps_start: float = 1.0
@@ -318,8 +332,10 @@ class SearchConfig:
                "need 0 <= eps_end <= eps_start <= 1")  # fmt: skip
         lo, hi = self.transit_height
         _check(0.0 <= lo <= hi, "transit_height", "need 0 <= low <= high")
-        for name in ("object_goal_noise", "transfer_goal_noise"):
+        for name in ("object_goal_noise", "transfer_goal_noise", "stall_memory", "stall_step",
+                     "stall_ahead", "stall_radius"):  # fmt: skip
             _check(getattr(self, name) >= 0, name, "must be >= 0")
+        _check(0.0 <= self.waypoint_share <= 1.0, "waypoint_share", "must lie in [0, 1]")
         _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")
 
 

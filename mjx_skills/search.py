@@ -6,8 +6,10 @@ goals just above the object, grasp goals its lift height, transfer goals near th
 goal. Each edge is scored in one batched call per level for all envs and nodes at once:
 the classifier's success probability (edges at or below `prune_below` are pruned), the
 skill's critic value Q^i(s, g, pi^i(s, g)), and the next state from the coarse model (or
-memory; on the last level optionally the skill's goal itself, `leaf_state`). A path's utility is U = sum_c gamma^c Q_c + gamma^C v(leaf); every node of the
-tree may end a path. The search returns the first (skill, goal) of the best path per env,
+memory; on the last level optionally the skill's goal itself, `leaf_state`). A path's
+utility is U = sum_c gamma^c Q_c + gamma^C v(leaf); every node of the tree may end a path.
+Optionally some transfer goals are waypoints anywhere in reach, and edges through obstacles
+the explorer remembered are pruned (`stalls.py`). The search returns the first (skill, goal) of the best path per env,
 and flags envs whose every first edge was pruned.
 """
 
@@ -19,6 +21,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
+from mjx_skills import stalls
 from mjx_skills.config import SearchConfig
 from mjx_skills.envs.baxter import OBS_OBJECT
 from mjx_skills.library import SkillLibrary
@@ -58,6 +61,12 @@ def sample_edges(
         + jnp.concatenate([cfg.object_goal_noise * noise[..., :2], height[..., None]], axis=-1),
         "transfer": task_goal[:, None] + cfg.transfer_goal_noise * noise,
     }
+    if "transfer" in names and cfg.waypoint_share > 0:
+        k_way, k_where = jax.random.split(jax.random.fold_in(key, 1))
+        low, high = lib.envs[names.index("transfer")].object_goal_box()
+        anywhere = jax.random.uniform(k_where, (n, b, 3), minval=low, maxval=high)
+        way = jax.random.uniform(k_way, (n, b, 1)) < cfg.waypoint_share
+        candidates["transfer"] = jnp.where(way, anywhere, candidates["transfer"])
     if "grasp" in names:
         grasp = lib.envs[names.index("grasp")]
         lift = jax.random.uniform(k_lift, (n, b, 1), minval=-1.0, maxval=1.0)
@@ -88,8 +97,10 @@ def search(
     obs: jax.Array,
     task_goal: jax.Array,
     key: jax.Array,
+    obstacles: jax.Array | None = None,
 ) -> SearchResult:
-    """The best first edge per env: obs (B, 25), task_goal (B, 3)."""
+    """The best first edge per env: obs (B, 25), task_goal (B, 3); moving edges that pass
+    near one of an env's remembered `obstacles` (B, M, 3) are pruned (`stalls.py`)."""
     B, b = obs.shape[0], cfg.branching
     next_fn = lib.next_state if cfg.lookahead_next == "model" else lib.recall
     # Level state, one row per (env, node): start with the root.
@@ -115,6 +126,9 @@ def search(
             & ok.reshape(shape)
             & (prob.reshape(shape) > cfg.prune_below)
         )
+        if obstacles is not None:
+            near = jnp.repeat(obstacles, n * b, axis=0)
+            valid &= ~stalls.blocked(near, lib.names, sk, s_rep, g, cfg.stall_radius).reshape(shape)
         u = jnp.repeat(path_u, b, axis=1) + jnp.repeat(disc, b, axis=1) * q.reshape(shape)
         disc = jnp.repeat(disc, b, axis=1) * cfg.gamma
         states = nxt.reshape(B, n * b, -1)

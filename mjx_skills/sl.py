@@ -2,7 +2,8 @@
 search over the skill library.
 
 Per env the behaviour keeps (running skill, its goal, steps in it). Whenever an env has no
-running skill, or its skill terminated or ran `skill_steps` steps, it decides again: with
+running skill, or its skill terminated, ran `skill_steps` steps or stalled against an
+obstacle the coarse models never saw (`stall_memory`, `stalls.py`), it decides again: with
 probability eps it searches and follows the best first skill's library policy; otherwise
 (and when every edge was pruned) it acts with the learned policy plus noise. eps decays
 linearly over epochs. The replay stores the executed low-level actions, and the learner is
@@ -18,9 +19,10 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from mjx_skills import ddpg, rollout, search
+from mjx_skills import ddpg, rollout, search, stalls
 from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.ddpg_her import make_ddpg_her
+from mjx_skills.envs.baxter import OBS_GRIP
 from mjx_skills.learner import Learner
 from mjx_skills.library import SkillLibrary
 
@@ -35,6 +37,12 @@ class ExploreState:
     """(B, 3) its goal."""
     steps: jax.Array
     """(B,) int32 steps it has run."""
+    last_grip: jax.Array
+    """(B, 3) the gripper before the last step (stall detection)."""
+    obstacles: jax.Array
+    """(B, M, 3) where skills stalled this episode (`stalls.py`; M = 0 when off)."""
+    stalls: jax.Array
+    """(B,) int32 stalls so far this episode (the ring buffer's write position)."""
 
 
 def epsilon(cfg: SearchConfig, epoch: jax.Array) -> jax.Array:
@@ -55,12 +63,23 @@ def make_behaviour(
 
     def init(key, n):
         return ExploreState(active=jnp.zeros((n,), bool), skill=jnp.zeros((n,), jnp.int32),
-                            goal=jnp.zeros((n, 3)), steps=jnp.zeros((n,), jnp.int32))  # fmt: skip
+                            goal=jnp.zeros((n, 3)), steps=jnp.zeros((n,), jnp.int32),
+                            last_grip=jnp.zeros((n, 3)),
+                            obstacles=stalls.empty(n, cfg.stall_memory),
+                            stalls=jnp.zeros((n,), jnp.int32))  # fmt: skip
 
     def step(ps: ExploreState, key, state):
         k_coin, k_search, k_noise = jax.random.split(key, 3)
         obs, task_goal = state.obs, state.desired_goal
-        done = lib.terminated(ps.skill, obs, ps.goal) | (ps.steps >= cfg.skill_steps)
+        grip = obs[:, OBS_GRIP]
+        stall = jnp.zeros(ps.active.shape, bool)
+        if cfg.stall_memory:
+            stall = stalls.stalled(lib.names, ps.skill, obs, ps.last_grip, ps.goal, ps.active,
+                                   ps.steps, cfg.stall_step, cfg.stall_ahead + cfg.stall_radius)  # fmt: skip
+            obstacles, count = stalls.remember(ps.obstacles, ps.stalls, grip, ps.goal, stall,
+                                               cfg.stall_ahead)  # fmt: skip
+            ps = ps.replace(obstacles=obstacles, stalls=count)
+        done = lib.terminated(ps.skill, obs, ps.goal) | (ps.steps >= cfg.skill_steps) | stall
         decide = ~ps.active | done
         explore = decide & (jax.random.uniform(k_coin, ps.steps.shape) < eps)
         # With the task already solved, the best plan is to do nothing: hold still, keeping
@@ -72,7 +91,9 @@ def make_behaviour(
         # The search's cost is paid only at steps where some env decides to explore.
         found = jax.lax.cond(
             jnp.any(explore),
-            lambda: search.search(lib, cfg, env, obs, task_goal, k_search),
+            lambda: search.search(
+                lib, cfg, env, obs, task_goal, k_search, ps.obstacles if cfg.stall_memory else None
+            ),
             lambda: _no_search(obs.shape[0]),
         )
         start = explore & ~found.all_pruned
@@ -94,7 +115,10 @@ def make_behaviour(
             "all_pruned": explore & found.all_pruned,
             "eps": jnp.broadcast_to(eps, active.shape),
         }
-        return ExploreState(active=active, skill=skill, goal=goal, steps=steps), action, record
+        if cfg.stall_memory:
+            record["stalls"] = stall
+        ps = ps.replace(active=active, skill=skill, goal=goal, steps=steps, last_grip=grip)
+        return ps, action, record
 
     return rollout.Behaviour(init=init, step=step)
 
