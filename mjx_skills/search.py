@@ -9,8 +9,8 @@ skill's critic value Q^i(s, g, pi^i(s, g)), and the next state from the coarse m
 memory; on the last level optionally the skill's goal itself, `leaf_state`). A path's
 utility is U = sum_c gamma^c Q_c + gamma^C v(leaf); every node of the tree may end a path.
 Optionally some transfer goals are waypoints anywhere in reach, and edges through obstacles
-the explorer remembered are pruned (`stalls.py`). The search returns the first (skill, goal) of the best path per env,
-and flags envs whose every first edge was pruned.
+the explorer remembered are pruned (`stalls.py`). The search returns the first (skill,
+goal) of the best path per env, and flags envs whose every first edge was pruned.
 """
 
 from __future__ import annotations

@@ -74,8 +74,9 @@ def make_behaviour(
         grip = obs[:, OBS_GRIP]
         stall = jnp.zeros(ps.active.shape, bool)
         if cfg.stall_memory:
-            stall = stalls.stalled(lib.names, ps.skill, obs, ps.last_grip, ps.goal, ps.active,
-                                   ps.steps, cfg.stall_step, cfg.stall_ahead + cfg.stall_radius)  # fmt: skip
+            stall = stalls.stalled(lib.names, ps.skill, grip, ps.last_grip, ps.goal, ps.active,
+                                   ps.steps, cfg.stall_step,
+                                   cfg.stall_ahead + cfg.stall_radius)  # fmt: skip
             obstacles, count = stalls.remember(ps.obstacles, ps.stalls, grip, ps.goal, stall,
                                                cfg.stall_ahead)  # fmt: skip
             ps = ps.replace(obstacles=obstacles, stalls=count)

@@ -1,4 +1,5 @@
-"""Obstacles the coarse models never saw, remembered where the arm stalled (`--search.stall-memory`).
+"""Obstacles the coarse models never saw, remembered where the arm stalled
+(`--search.stall-memory`).
 
 The skills' coarse dynamics models are learned in empty skill envs, so they predict that a
 transfer carries the cube straight through the container_wall task's tall wall (thesis
@@ -53,13 +54,12 @@ def blocked(
 
 
 def stalled(
-    names: tuple[str, ...], skill: jax.Array, obs: jax.Array, last_grip: jax.Array,
+    names: tuple[str, ...], skill: jax.Array, grip: jax.Array, last_grip: jax.Array,
     goal: jax.Array, active: jax.Array, steps: jax.Array, step_m: float, margin: float,
 ) -> jax.Array:  # fmt: skip
-    """(B,) bool: a running moving skill moved its gripper less than `step_m` in its last
-    step while still farther than `margin` from its goal (a skill settling onto its goal is
-    not an obstacle)."""
-    grip = obs[:, OBS_GRIP]
+    """(B,) bool: a running moving skill moved its gripper (B, 3) less than `step_m` in its
+    last step while still farther than `margin` from its goal (a skill settling onto its
+    goal is not an obstacle)."""
     still = jnp.linalg.norm(grip - last_grip, axis=-1) < step_m
     far = jnp.linalg.norm(goal - grip, axis=-1) > margin
     return active & (steps >= 2) & moving(names, skill) & still & far
@@ -72,8 +72,8 @@ def remember(
     """Write the point `ahead` m from grip (B, 3) towards goal (B, 3) into the ring buffer
     obstacles (B, M, 3) of the envs that stalled (B,); returns (obstacles, count)."""
     direction = goal - grip
-    point = grip + ahead * direction / jnp.maximum(jnp.linalg.norm(direction, axis=-1,
-                                                                   keepdims=True), 1e-9)  # fmt: skip
+    length = jnp.maximum(jnp.linalg.norm(direction, axis=-1, keepdims=True), 1e-9)
+    point = grip + ahead * direction / length
     slot = jax.nn.one_hot(count % obstacles.shape[1], obstacles.shape[1], dtype=bool)
     write = stall[:, None] & slot
     return jnp.where(write[..., None], point[:, None], obstacles), count + stall
