@@ -314,6 +314,12 @@ class SearchConfig:
     """... this far (m) beyond the gripper towards the skill's goal ..."""
     stall_radius: float = 0.03
     """... and prunes edges whose straight path passes within this (m) of it."""
+    search_chunk: float = 0.25
+    """Envs searched at once, as a share of each seed's envs (rounded up, at least one): the
+    envs that decide to search are searched in chunks of this size, one after another, so a
+    step costs the search of the envs that search, not of the whole batch. 0.25 suits about
+    one decision in four env steps at eps = 1 (measured: benchmarks/epoch_cost.py); 1.0
+    searches every env's tree at once whenever one env searches."""
     skill_steps: int = 10
     """w: a searched skill runs until it terminates or for this many steps (thesis: 10)."""
     eps_start: float = 1.0
@@ -336,6 +342,7 @@ class SearchConfig:
                      "stall_ahead", "stall_radius"):  # fmt: skip
             _check(getattr(self, name) >= 0, name, "must be >= 0")
         _check(0.0 <= self.waypoint_share <= 1.0, "waypoint_share", "must lie in [0, 1]")
+        _check(0.0 < self.search_chunk <= 1.0, "search_chunk", "must lie in (0, 1]")
         _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")
 
 

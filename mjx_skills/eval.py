@@ -32,7 +32,7 @@ from mjx_skills.envs.registry import make
 from mjx_skills.learner import Learner
 from mjx_skills.logging import read_metrics
 from mjx_skills.runner import RunArgs, load_config
-from mjx_skills.train import init_carry, make_evaluate, seed_keys
+from mjx_skills.train import init_carry, make_evaluate, over_seeds, seed_keys
 
 FLAT_METHODS = ("ddpg_her", "ddpg_her_sl")
 """Methods whose evaluation behaviour is the flat DDPG actor: the ones gym can replay."""
@@ -100,7 +100,7 @@ def evaluate_jax(run: TrainedRun, key: jax.Array, episodes: int) -> tuple[np.nda
     train = dataclasses.replace(run.args.train, eval_episodes=episodes)
     evaluate = make_evaluate(run.learner, run.env, train)
     # aux (the library) is an argument, not a constant baked into the program, as in training.
-    metrics = jax.jit(jax.vmap(evaluate, in_axes=(0, None, None)))(run.agents, run.aux, key)
+    metrics = jax.jit(over_seeds(evaluate, in_axes=(0, None, None)))(run.agents, run.aux, key)
     return np.asarray(metrics["eval_success"]), np.asarray(metrics["eval_distance"])
 
 

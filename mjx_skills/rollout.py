@@ -48,6 +48,31 @@ class Behaviour(NamedTuple):
     step: Callable[[Any, jax.Array, Any], tuple[Any, jax.Array, dict[str, jax.Array]]]
 
 
+SEED_AXIS = "seeds"
+"""Name of the vmap axis over seeds (the trainer vmaps the whole epoch over it)."""
+
+
+def max_over_seeds(x: jax.Array) -> jax.Array:
+    """`x` reduced with max over the seed axis when the program is vmapped over seeds
+    (`SEED_AXIS`): the result is the same for every seed and not batched. Else `x`."""
+    try:
+        return jax.lax.pmax(x, SEED_AXIS)
+    except NameError:  # not vmapped over seeds (a benchmark, eval_shape)
+        return x
+
+
+def any_in_program(pred: jax.Array) -> jax.Array:
+    """() bool: whether `pred` holds anywhere in the program: over its own axes and, when the
+    program is vmapped over seeds, over every seed.
+
+    Use it as the predicate of a `lax.cond` that guards costly work inside a behaviour:
+    reduced over the seed axis, the predicate is not batched, so the cond stays a real
+    branch. A cond on a batched predicate becomes a select that evaluates both branches at
+    every step (JAX's vmap rule for `cond`).
+    """
+    return max_over_seeds(jnp.any(pred).astype(jnp.int32)) > 0
+
+
 Policy = Callable[[jax.Array, jax.Array, jax.Array], jax.Array]
 """policy(key, obs (n, obs_dim), goal (n, goal_dim)) -> actions (n, act_dim)."""
 

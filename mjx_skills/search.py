@@ -11,17 +11,22 @@ utility is U = sum_c gamma^c Q_c + gamma^C v(leaf); every node of the tree may e
 Optionally some transfer goals are waypoints anywhere in reach, and edges through obstacles
 the explorer remembered are pruned (`stalls.py`). The search returns the first (skill,
 goal) of the best path per env, and flags envs whose every first edge was pruned.
+
+`search_where` runs it only for the envs that decide to search, in chunks (`search_chunk`),
+and not at all at a step where no env of any seed searches: each env draws its edges from
+its own key, so an env's result does not depend on which other envs search with it.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 from flax import struct
 
-from mjx_skills import stalls
+from mjx_skills import rollout, stalls
 from mjx_skills.config import SearchConfig
 from mjx_skills.envs.baxter import OBS_OBJECT
 from mjx_skills.library import SkillLibrary
@@ -40,38 +45,34 @@ class SearchResult:
 
 
 def sample_edges(
-    lib: SkillLibrary, cfg: SearchConfig, obs: jax.Array, task_goal: jax.Array, key: jax.Array
+    lib: SkillLibrary, cfg: SearchConfig, obs: jax.Array, task_goal: jax.Array, draws: tuple
 ) -> tuple[jax.Array, jax.Array, jax.Array]:
-    """`cfg.branching` (skill, goal) pairs per state: obs (N, 25), task_goal (N, 3) ->
-    skill (N, b) int32, goal (N, b, 3), allowed (N, b) bool (False: no skill may act here)."""
-    n, b = obs.shape[0], cfg.branching
-    k_skill, k_noise, k_lift, k_height = jax.random.split(key, 4)
+    """`cfg.branching` (skill, goal) pairs per state: obs (N, 25), task_goal (N, 3), the
+    states' random draws (`level_draws`, leading axis N) -> skill (N, b) int32, goal
+    (N, b, 3), allowed (N, b) bool (False: no skill may act here)."""
     names = lib.names
+    scores, noise, height, lift, way, where = draws
     allowed = lib.allowed(obs)  # (N, K)
-    scores = jax.random.uniform(k_skill, (n, b, len(names)))
     skill = jnp.argmax(jnp.where(allowed[:, None], scores, -1.0), axis=-1).astype(jnp.int32)
     ok = jnp.take_along_axis(allowed, skill, axis=1)
 
     obj = obs[:, None, OBS_OBJECT]
-    noise = jax.random.uniform(k_noise, (n, b, 3), minval=-1.0, maxval=1.0)
     lo, hi = cfg.transit_height
-    height = jax.random.uniform(k_height, (n, b), minval=lo, maxval=hi)
+    height = lo + (hi - lo) * height
     candidates = {
         "transit": obj
         + jnp.concatenate([cfg.object_goal_noise * noise[..., :2], height[..., None]], axis=-1),
         "transfer": task_goal[:, None] + cfg.transfer_goal_noise * noise,
     }
     if "transfer" in names and cfg.waypoint_share > 0:
-        k_way, k_where = jax.random.split(jax.random.fold_in(key, 1))
         low, high = lib.envs[names.index("transfer")].object_goal_box()
-        anywhere = jax.random.uniform(k_where, (n, b, 3), minval=low, maxval=high)
-        way = jax.random.uniform(k_way, (n, b, 1)) < cfg.waypoint_share
-        candidates["transfer"] = jnp.where(way, anywhere, candidates["transfer"])
+        anywhere = jnp.asarray(low) + (jnp.asarray(high) - jnp.asarray(low)) * where
+        candidates["transfer"] = jnp.where(way < cfg.waypoint_share, anywhere,
+                                           candidates["transfer"])  # fmt: skip
     if "grasp" in names:
         grasp = lib.envs[names.index("grasp")]
-        lift = jax.random.uniform(k_lift, (n, b, 1), minval=-1.0, maxval=1.0)
         candidates["grasp"] = grasp.goal_from_param(
-            lift, jnp.broadcast_to(obs[:, None], (n, b, obs.shape[-1]))
+            lift, jnp.broadcast_to(obs[:, None], (*lift.shape[:2], obs.shape[-1]))
         )
     goals = jnp.stack([candidates[name] for name in names])  # (K, N, b, 3)
     goal = jnp.take_along_axis(goals, skill[None, ..., None], axis=0)[0]
@@ -80,6 +81,37 @@ def sample_edges(
         goal = jnp.where((skill == names.index("transfer"))[..., None],
                          jnp.clip(goal, low, high), goal)  # fmt: skip
     return skill, goal, ok
+
+
+def _draws(key: jax.Array, lead: tuple[int, ...], k: int) -> tuple[jax.Array, ...]:
+    """Random draws of edges (leading shape `lead`) from one key: skill scores (..., k),
+    goal noise in [-1, 1] (..., 3), transit height share (...), grasp lift parameter in
+    [-1, 1] (..., 1), waypoint coin (..., 1) and waypoint position share (..., 3)."""
+    k_skill, k_noise, k_height, k_lift, k_way, k_where = jax.random.split(key, 6)
+    uniform = jax.random.uniform
+    return (uniform(k_skill, (*lead, k)), uniform(k_noise, (*lead, 3), minval=-1.0, maxval=1.0),
+            uniform(k_height, lead), uniform(k_lift, (*lead, 1), minval=-1.0, maxval=1.0),
+            uniform(k_way, (*lead, 1)), uniform(k_where, (*lead, 3)))  # fmt: skip
+
+
+def env_keys(key: jax.Array, n: int) -> jax.Array:
+    """(n,) keys, env i's = fold_in(key, i): what `search` draws each env's tree from."""
+    return jax.vmap(lambda i: jax.random.fold_in(key, i))(jnp.arange(n))
+
+
+def draw_edges(keys: jax.Array, cfg: SearchConfig, n_skills: int) -> tuple[jax.Array, ...]:
+    """Every edge's random draws of each env's whole tree from the env's key alone: keys
+    (B,) -> `_draws` with leading shape (B, nodes, branching), nodes = the tree's inner
+    nodes, level by level (1 + b + ... + b^(height - 1))."""
+    b = cfg.branching
+    nodes = sum(b**level for level in range(cfg.height))
+    return jax.vmap(lambda key: _draws(key, (nodes, b), n_skills))(keys)
+
+
+def level_draws(draws: tuple[jax.Array, ...], level: int, b: int) -> tuple[jax.Array, ...]:
+    """The draws of one level's b^level nodes per env, flattened to (B * b^level, b, ...)."""
+    start, n = sum(b**i for i in range(level)), b**level
+    return tuple(x[:, start : start + n].reshape(-1, *x.shape[2:]) for x in draws)
 
 
 def leaf_value(cfg: SearchConfig, env: Any, obs: jax.Array, task_goal: jax.Array) -> jax.Array:
@@ -100,8 +132,23 @@ def search(
     obstacles: jax.Array | None = None,
 ) -> SearchResult:
     """The best first edge per env: obs (B, 25), task_goal (B, 3); moving edges that pass
-    near one of an env's remembered `obstacles` (B, M, 3) are pruned (`stalls.py`)."""
+    near one of an env's remembered `obstacles` (B, M, 3) are pruned (`stalls.py`). Env i
+    draws its tree from `env_keys(key, B)[i]` alone."""
+    return search_envs(lib, cfg, env, obs, task_goal, env_keys(key, obs.shape[0]), obstacles)
+
+
+def search_envs(
+    lib: SkillLibrary,
+    cfg: SearchConfig,
+    env: Any,
+    obs: jax.Array,
+    task_goal: jax.Array,
+    keys: jax.Array,
+    obstacles: jax.Array | None = None,
+) -> SearchResult:
+    """`search` with one key per env, keys (B,)."""
     B, b = obs.shape[0], cfg.branching
+    draws = draw_edges(keys, cfg, len(lib.names))
     next_fn = lib.next_state if cfg.lookahead_next == "model" else lib.recall
     # Level state, one row per (env, node): start with the root.
     states, alive = obs[:, None], jnp.ones((B, 1), bool)
@@ -112,7 +159,7 @@ def search(
         n = states.shape[1]
         flat = states.reshape(B * n, -1)
         goals_rep = jnp.repeat(task_goal, n, axis=0)
-        skill, goal, ok = sample_edges(lib, cfg, flat, goals_rep, jax.random.fold_in(key, level))
+        skill, goal, ok = sample_edges(lib, cfg, flat, goals_rep, level_draws(draws, level, b))
         rows = B * n * b
         s_rep = jnp.repeat(flat, b, axis=0)
         sk, g = skill.reshape(rows), goal.reshape(rows, 3)
@@ -152,3 +199,52 @@ def search(
         all_pruned=~jnp.isfinite(utility),
         utility=utility,
     )
+
+
+def no_search(n: int) -> SearchResult:
+    """n envs without a search: every first edge counts as pruned."""
+    return SearchResult(skill=jnp.zeros((n,), jnp.int32), goal=jnp.zeros((n, 3)),
+                        all_pruned=jnp.ones((n,), bool), utility=jnp.full((n,), -jnp.inf))  # fmt: skip
+
+
+def search_where(
+    lib: SkillLibrary,
+    cfg: SearchConfig,
+    env: Any,
+    where: jax.Array,
+    obs: jax.Array,
+    task_goal: jax.Array,
+    key: jax.Array,
+    obstacles: jax.Array | None = None,
+) -> SearchResult:
+    """`search` for the envs where `where` (B,) holds; the others get `no_search`.
+
+    Env i searches with `env_keys(key, B)[i]`, as in `search`, whatever else searches. The
+    envs that search are gathered into chunks of ceil(`cfg.search_chunk` x B) and searched
+    one chunk after another in a `while_loop` whose trip count is the largest over seeds (`rollout.max_over_seeds`),
+    so inside the trainer's vmap over seeds it stays a loop and costs nothing at a step
+    where no env of any seed searches. obs (B, obs_dim), task_goal (B, 3), obstacles
+    (B, M, 3) or None."""
+    B = obs.shape[0]
+    keys = env_keys(key, B)
+    chunk = min(B, max(1, math.ceil(cfg.search_chunk * B)))
+    count = jnp.sum(where.astype(jnp.int32))
+    rounds = rollout.max_over_seeds((count + chunk - 1) // chunk)
+    # The searching envs first (stable order), padded to whole chunks.
+    order = jnp.argsort(~where, stable=True)
+    order = jnp.concatenate([order, jnp.zeros((-B % chunk,), order.dtype)])
+    rows_of = lambda r: jax.lax.dynamic_slice_in_dim(order, r * chunk, chunk)
+
+    def body(carry):
+        r, found = carry
+        rows = rows_of(r)
+        valid = r * chunk + jnp.arange(chunk) < count
+        part = search_envs(lib, cfg, env, obs[rows], task_goal[rows], keys[rows],
+                           None if obstacles is None else obstacles[rows])  # fmt: skip
+        at = jnp.where(valid, rows, B)  # out of range: dropped
+        found = jax.tree.map(lambda f, p: f.at[at].set(p, mode="drop"), found, part)
+        return r + 1, found
+
+    start = (jnp.zeros((), rounds.dtype), no_search(B))
+    _, found = jax.lax.while_loop(lambda c: c[0] < rounds, body, start)
+    return found

@@ -89,14 +89,10 @@ def make_behaviour(
         solved = env.is_success(state.achieved_goal, task_goal)
         hold = explore & solved
         explore = explore & ~solved
-        # The search's cost is paid only at steps where some env decides to explore.
-        found = jax.lax.cond(
-            jnp.any(explore),
-            lambda: search.search(
-                lib, cfg, env, obs, task_goal, k_search, ps.obstacles if cfg.stall_memory else None
-            ),
-            lambda: _no_search(obs.shape[0]),
-        )
+        # The search's cost is paid only for the envs that explore, and not at all at a step
+        # where no env of any seed explores (`search.search_where`).
+        found = search.search_where(lib, cfg, env, explore, obs, task_goal, k_search,
+                                    ps.obstacles if cfg.stall_memory else None)  # fmt: skip
         start = explore & ~found.all_pruned
         active = jnp.where(decide, start, ps.active)
         skill = jnp.where(start, found.skill, ps.skill)
@@ -122,11 +118,6 @@ def make_behaviour(
         return ps, action, record
 
     return rollout.Behaviour(init=init, step=step)
-
-
-def _no_search(n: int) -> search.SearchResult:
-    return search.SearchResult(skill=jnp.zeros((n,), jnp.int32), goal=jnp.zeros((n, 3)),
-                               all_pruned=jnp.ones((n,), bool), utility=jnp.full((n,), -jnp.inf))  # fmt: skip
 
 
 def make_scripted_behaviour(

@@ -3,14 +3,20 @@
     python -m mjx_skills.sweep --experiment smoke
     python -m mjx_skills.sweep --experiment fig6_3 --seeds 3 --epochs 50
     python -m mjx_skills.sweep --tasks pick_move take_out --methods pas mpas --seeds 3
+    python -m mjx_skills.sweep --experiment fig6_3 --jobs 1           # one cell at a time
+    python -m mjx_skills.sweep --experiment fig6_3 --estimate         # wall time, no training
     python -m mjx_skills.sweep --experiment fig6_3 --ray local        # cells as Ray tasks
     python -m mjx_skills.sweep --list
 
 An experiment is a small TOML file in experiments/ (`experiments/NAME.toml`, read by
 `mjx_skills.experiments`): tasks x methods x libraries, a budget and option overrides. A
 cell is one (task, method, library) training run with all its seeds in one vmapped
-program (`runner.train_run`). Locally cells run one after another; with `--ray ADDRESS` or
-`--ray local` each cell is a Ray task (the `ray` extra).
+program (`runner.train_run`). Locally `--jobs N` cells run at once, each in its own worker
+process pinned to its share of the cores (`mjx_skills.workers`; default one cell per core:
+on 2 cores two cells at once finish 1.6-2x sooner than one at a time, README "Speed");
+results are the same bits whatever N is. With `--ray ADDRESS` or `--ray local` each cell is
+a Ray task (the `ray` extra). `--estimate` prints the expected wall time from the measured
+epoch costs (`mjx_skills.cost`) without training.
 
 Resumable: a cell lives in SWEEP_DIR/CELL/ (default runs/sweeps/NAME/); a finished cell is
 skipped, an interrupted one resumes from its checkpoint, so starting a sweep again loses no
@@ -153,9 +159,31 @@ def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str) -> list[str
     return [done_dirs[c] for c in cells]
 
 
+def run_cells_local(cells: list[Cell], dirs: list[Path], jobs: int, progress: bool) -> list[str]:
+    """Every cell, `jobs` at a time (in pinned worker processes when jobs > 1) -> run dirs."""
+    todo = [i for i, (c, d) in enumerate(zip(cells, dirs, strict=True))
+            if not finished(cell_run_dir(d), c)]  # fmt: skip
+    for i, cell in enumerate(cells):
+        state = "running" if i in todo else "done"
+        print(f"[cell {i + 1}/{len(cells)}] {cell.name}: {state}", file=sys.stderr)
+    jobs = min(jobs, len(todo))
+    if jobs <= 1:
+        return [run_cell(c, str(d), progress) for c, d in zip(cells, dirs, strict=True)]
+    from mjx_skills.workers import run_pool
+
+    with tqdm(total=len(todo), desc=f"cells ({jobs} at once)", unit="cell",
+              disable=not progress) as bar:  # fmt: skip
+        calls = [(cells[i], str(dirs[i]), False) for i in todo]
+        for k, _ in run_pool(run_cell, calls, jobs):
+            bar.set_postfix_str(cells[todo[k]].name)
+            bar.update(1)
+    # Finished now, each in its own directory: read back in the experiment's order.
+    return [run_cell(c, str(d), False) for c, d in zip(cells, dirs, strict=True)]
+
+
 def run_sweep(
     exp: Experiment, sweep_dir: Path, results: Path, overwrite: bool = False,
-    ray_address: str | None = None, progress: bool = True,
+    ray_address: str | None = None, progress: bool = True, jobs: int = 1,
 ) -> tuple[Path, ...]:  # fmt: skip
     """Run every cell of `exp` (skipping finished ones) and write its results -> their files
     (NAME.csv and NAME.jsonl; a library experiment: NAME.csv)."""
@@ -167,11 +195,7 @@ def run_sweep(
     if ray_address:
         run_dirs = run_cells_ray(cells, dirs, ray_address)
     else:
-        run_dirs = []
-        for i, (cell, cell_dir) in enumerate(zip(cells, dirs, strict=True)):
-            state = "done" if finished(cell_run_dir(cell_dir), cell) else "running"
-            print(f"[cell {i + 1}/{len(cells)}] {cell.name}: {state}", file=sys.stderr)
-            run_dirs.append(run_cell(cell, str(cell_dir), progress))
+        run_dirs = run_cells_local(cells, dirs, jobs, progress)
     if exp.kind == "library":
         from mjx_skills.skills import write_table
 
@@ -197,6 +221,11 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace existing NAME.csv/.jsonl")
     p.add_argument("--ray", metavar="ADDRESS", help="run cells as Ray tasks: 'local' or HOST:PORT")
     p.add_argument("--ray-address", dest="ray", help=argparse.SUPPRESS)
+    p.add_argument("--jobs", type=int, default=None,
+                   help="cells at once, each in a process pinned to its cores "
+                   "(default: one per usable core)")  # fmt: skip
+    p.add_argument("--estimate", action="store_true",
+                   help="print the expected wall time from measured epoch costs; no training")  # fmt: skip
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     args = p.parse_args(argv)
     if args.list:
@@ -213,10 +242,21 @@ def main(argv: list[str] | None = None) -> None:
         else:
             raise ValueError("give --experiment NAME (see --list) or --tasks ... --methods ...")
         exp = exp.with_budget(seeds=args.seeds, epochs=args.epochs)
+        if args.jobs is not None and args.jobs < 1:
+            raise ValueError(f"--jobs must be >= 1, got {args.jobs}")
     except ValueError as err:
         raise SystemExit(f"error: {err}") from None
+    from mjx_skills.workers import usable_cores
+
+    jobs = args.jobs or usable_cores()
+    if args.estimate:
+        from mjx_skills import cost
+
+        print(cost.report(exp, jobs))
+        return
     sweep_dir = args.sweep_dir or Path("runs") / "sweeps" / exp.name
-    paths = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray, not args.no_progress)
+    paths = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray,
+                      not args.no_progress, jobs)  # fmt: skip
     print(f"{len(exp.cells())} cells done; results: {', '.join(map(str, paths))}")
 
 

@@ -159,10 +159,16 @@ def build(
     # Training-only start distributions (held starts) never reach the evaluation episodes.
     eval_env = make(train.task, env_cfg, held_start_prob=0.0) if env_cfg.held_start_prob else env
     learner = spec.make_learner(env, train, **{**spec.options, **(options or {})})
-    epoch = jax.vmap(make_train_epoch(learner, env, train, eval_env), in_axes=(0, None))
+    epoch = over_seeds(make_train_epoch(learner, env, train, eval_env), in_axes=(0, None))
     epoch_fn = jax.jit(epoch, donate_argnums=0)
     init = jax.vmap(lambda k: init_carry(learner, env, train, k, aux))
     return env, learner, epoch_fn, committed(jax.jit(init)(seed_keys(train)))
+
+
+def over_seeds(fn, in_axes=0):
+    """`fn` vmapped over a leading seed axis named `rollout.SEED_AXIS`, so that a behaviour's
+    guarded branches can reduce their predicate over seeds (`rollout.any_in_program`)."""
+    return jax.vmap(fn, in_axes=in_axes, axis_name=rollout.SEED_AXIS)
 
 
 def committed(carry: Any) -> Any:

@@ -88,7 +88,13 @@ def test_one_level_search_returns_the_known_best_edge(env):
     obs, goal = states(8, held=False)
     key = jax.random.PRNGKey(3)
     found = jax.jit(lambda o, g: search.search(lib, cfg, env, o, g, key))(obs, goal)
-    skill, goals, ok = search.sample_edges(lib, cfg, obs, goal, jax.random.fold_in(key, 0))
+    skill, goals, ok = search.sample_edges(
+        lib,
+        cfg,
+        obs,
+        goal,
+        search.level_draws(search.draw_edges(search.env_keys(key, 8), cfg, 3), 0, 6),
+    )
     nxt = jax.vmap(lambda s, g: lib.next_state(s, obs, g), in_axes=(1, 1), out_axes=1)(skill, goals)
     utility = -goals[..., 0] + cfg.gamma * search.leaf_value(cfg, env, nxt, goal[:, None])
     best = np.argmax(np.where(ok, utility, -np.inf), axis=1)
@@ -96,7 +102,7 @@ def test_one_level_search_returns_the_known_best_edge(env):
         found.skill, np.take_along_axis(np.asarray(skill), best[:, None], 1)[:, 0]
     )
     np.testing.assert_allclose(
-        found.goal, np.take_along_axis(np.asarray(goals), best[:, None, None], 1)[:, 0]
+        found.goal, np.take_along_axis(np.asarray(goals), best[:, None, None], 1)[:, 0], atol=1e-6
     )
     assert not np.any(found.all_pruned)
 
@@ -288,10 +294,87 @@ def test_waypoints_spread_transfer_goals_over_the_goal_box(env):
     lib = KnownLibrary()
     for share, far in ((0.0, 0), (0.5, 100)):
         cfg = SearchConfig(waypoint_share=share)
-        skill, goals, _ = search.sample_edges(lib, cfg, held, goal, jax.random.PRNGKey(0))
+        draws = search.draw_edges(search.env_keys(jax.random.PRNGKey(0), 64), cfg, 3)
+        skill, goals, _ = search.sample_edges(
+            lib, cfg, held, goal, search.level_draws(draws, 0, cfg.branching)
+        )
         assert np.all(np.asarray(skill) == TRANSFER)
         dist = np.abs(np.asarray(goals) - np.asarray(goal)[:, None]).max(-1)
         # Within transfer_goal_noise of the task goal, unless a waypoint (5 sigma bounds).
         assert (dist > 0.031).sum() >= far
         low, high = lib.envs[TRANSFER].object_goal_box()
         assert np.all((np.asarray(goals) >= low - 1e-6) & (np.asarray(goals) <= high + 1e-6))
+
+
+@dataclasses.dataclass(frozen=True)
+class CountingLibrary(KnownLibrary):
+    """Counts the searched tree rows: the classifier is asked once per level and row."""
+
+    calls: list = dataclasses.field(default_factory=list, compare=False, hash=False)
+
+    def success_prob(self, skill, obs, goal):
+        jax.debug.callback(lambda n: self.calls.append(int(n)), skill.shape[0])
+        return super().success_prob(skill, obs, goal)
+
+
+def test_search_where_searches_only_the_deciding_envs_each_with_its_own_key(env):
+    lib = KnownLibrary()
+    obs, goal = states(8, held=False)
+    key = jax.random.PRNGKey(5)
+    where = jnp.array([1, 0, 0, 1, 1, 0, 1, 0], bool)
+    results = {
+        chunk: jax.jit(
+            lambda w, c=chunk: search.search_where(
+                lib, SearchConfig(search_chunk=c), env, w, obs, goal, key
+            )
+        )(where)  # fmt: skip
+        for chunk in (0.125, 0.25, 1.0)
+    }
+    for found in results.values():
+        np.testing.assert_array_equal(found.all_pruned, ~np.asarray(where))
+        for i in np.flatnonzero(where):  # env i alone, with its own key
+            keys = search.env_keys(key, 8)[i : i + 1]
+            alone = search.search_envs(
+                lib, SearchConfig(), env, obs[i : i + 1], goal[i : i + 1], keys
+            )
+            assert found.skill[i] == alone.skill[0]
+            np.testing.assert_allclose(found.goal[i], alone.goal[0], atol=1e-6)
+            np.testing.assert_allclose(found.utility[i], alone.utility[0], rtol=1e-5)
+
+
+def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
+    """Inside the trainer's vmap over seeds the guard stays a branch: no tree row is
+    evaluated at a step where no env of either seed explores, and one exploring env costs
+    one round of chunks, not a search of the whole batch at every step (the old cond on a
+    batched predicate ran the whole tree for every env at every step)."""
+    from mjx_skills import rollout
+
+    agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
+    obs, goal = states(4, held=False)
+    state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
+    cfg = SearchConfig(search_chunk=0.25)  # one env per round
+    over_seeds = lambda f: jax.vmap(f, axis_name=rollout.SEED_AXIS)
+    # One env of one seed explores: one round, every level of the tree asked once.
+    lib = CountingLibrary()
+    where = jnp.zeros((2, 4), bool).at[1, 2].set(True)
+    jax.block_until_ready(over_seeds(
+        lambda w, o, g: search.search_where(lib, cfg, env, w, o, g, jax.random.PRNGKey(0))
+    )(where, jnp.stack([obs, obs]), jnp.stack([goal, goal])))  # fmt: skip
+    one_round = len(lib.calls)
+    assert one_round >= cfg.height
+    seeds = jax.random.split(jax.random.PRNGKey(0), 2)
+    for eps in (0.0, 1.0):
+        lib = CountingLibrary()
+        cfg = dataclasses.replace(cfg, eps_start=eps, eps_end=eps)
+        beh = sl.make_behaviour(agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig())
+
+        def steps(key, beh=beh):
+            ps = beh.init(key, 4)
+            for t in range(3):
+                ps, _, record = beh.step(ps, jax.random.fold_in(key, t), state)
+            return record["searches"]
+
+        jax.block_until_ready(over_seeds(steps)(seeds))
+        # eps 0: never; eps 1: every env decides at the first step only (skills run w = 10
+        # steps), 4 rounds of one env.
+        assert len(lib.calls) == (0 if eps == 0.0 else 4 * one_round), eps

@@ -95,6 +95,67 @@ def test_a_finished_sweep_skips_its_cells_and_keeps_its_results(finished_sweep):
     assert len(list((root / "cells").iterdir())) == 1
 
 
+def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, tmp_path):
+    """--jobs 2: each cell in its own pinned worker process and its own directory; the cell
+    interrupted before the sweep resumes, and its metrics are the bits a one-at-a-time
+    sweep gave (`finished_sweep`, the same cell also interrupted and resumed)."""
+    _, _, serial_run, _ = finished_sweep
+    exp = Experiment(name="tiny", description="test", tasks=("transit", "transfer"),
+                     methods=("ddpg_her",), seeds=2, epochs=2, train=TINY)  # fmt: skip
+    cells = exp.cells()
+    interrupted = train_run(
+        cells[0].run_args(str(tmp_path / "cells" / cells[0].name), progress=False), stop_after=1
+    )
+    csv_path, jsonl_path = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results",
+                                           progress=False, jobs=2)  # fmt: skip
+    run_dirs = [sweep.cell_run_dir(tmp_path / "cells" / c.name) for c in cells]
+    assert run_dirs[0] == interrupted and len(set(run_dirs)) == 2
+    for run_dir in run_dirs:
+        rows = read_metrics(run_dir)
+        assert sorted((r["epoch"], r["seed"]) for r in rows) == [(1, 0), (1, 1), (2, 0), (2, 1)]
+    drop_wall = lambda rows: [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]
+    assert drop_wall(read_metrics(run_dirs[0])) == drop_wall(read_metrics(serial_run))
+    per_seed = [json.loads(line) for line in jsonl_path.read_text().splitlines()]
+    assert {r["task"] for r in per_seed} == {"transit", "transfer"} and len(per_seed) == 8
+    with pytest.raises(SystemExit, match="--jobs must be >= 1"):
+        sweep.main(["--experiment", "smoke", "--jobs", "0", "--sweep-dir", str(tmp_path)])
+
+
+def test_core_groups_are_disjoint_and_cover_the_cores():
+    from mjx_skills.workers import core_groups
+
+    assert core_groups(2, [0, 1]) == [(0,), (1,)]
+    assert core_groups(2, [0, 1, 2, 3, 4]) == [(0, 1, 2), (3, 4)]
+    assert core_groups(3, [0, 1]) == [(0,), (1,), (0,)]  # more jobs than cores: shared
+    with pytest.raises(ValueError, match="jobs"):
+        core_groups(0, [0, 1])
+
+
+def test_the_estimate_adds_up_the_measured_epoch_costs():
+    from mjx_skills import cost
+
+    rows = [{"variant": v, "seeds": s, "cores": 1, "epoch_s": e * s, "compile_s": 10.0,
+             "updates_s": 0.0 if v != "ddpg_her" else e * s}
+            for v, e in (("ddpg_her", 1.0), ("sl_eps1", 3.0), ("sl_eps0", 1.0))
+            for s in (1, 3)]  # fmt: skip
+    exp = Experiment(name="t", description="", tasks=("pick_move", "put_in_container"),
+                     methods=("ddpg_her", "ddpg_her_sl"), seeds=5, epochs=40)  # fmt: skip
+    est = cost.estimate(exp, jobs=1, rows=rows)
+    cells = est["cells"]
+    # DDPG+HER: all updates, so the episode length (100 vs 50) does not matter; 5 seeds
+    # extrapolate the line through 1 and 3 seeds: 5 s per epoch.
+    assert cells["pick_move-ddpg_her-s5-e40"] == cells["put_in_container-ddpg_her-s5-e40"] == 210
+    # SL: eps 1 -> 0.001 over 30 epochs, then 10 epochs at eps 0.001; twice on 100 steps.
+    eps = [1.0 + min(e / 30, 1.0) * (0.001 - 1.0) for e in range(40)]
+    sl = 10 + sum(5 + 10 * x for x in eps)
+    assert cells["pick_move-ddpg_her_sl-SL1-s5-e40"] == round(sl)
+    assert cells["put_in_container-ddpg_her_sl-SL1-s5-e40"] == round(10 + 2 * (sl - 10))
+    assert est["serial_s"] == pytest.approx(sum(cells.values()), abs=2)
+    two = cost.estimate(exp, jobs=2, rows=rows)
+    assert max(cells.values()) <= two["wall_s"] < est["serial_s"]
+    assert cost.makespan([3, 5, 3, 4, 3], 2) == 10  # longest first: 5 + 3, 4 + 3 + 3
+
+
 def test_cells_run_as_ray_tasks(tmp_path):
     ray = pytest.importorskip("ray")
     exp = _tiny(epochs=1, seeds=1)

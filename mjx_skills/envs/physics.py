@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import os
 import threading
 from collections.abc import Callable
 from typing import Any, Protocol
@@ -25,6 +24,8 @@ import mujoco
 import numpy as np
 from flax import struct
 from mujoco import rollout
+
+from mjx_skills.workers import usable_cores
 
 # mujoco.mjx prints "Failed to import warp" when its optional Warp backend is absent, as it
 # is on a CPU; keep that out of every CLI run's output.
@@ -136,7 +137,7 @@ class NativeBackend:
 
     def __init__(self, model: mujoco.MjModel, n_threads: int = 0):
         self.model = model
-        self.n_threads = n_threads or os.cpu_count() or 1
+        self.n_threads = n_threads or usable_cores()
         self._datas = [mujoco.MjData(model) for _ in range(self.n_threads)]
         self._pool = rollout.Rollout(nthread=self.n_threads) if self.n_threads > 1 else None
         self._lock = threading.Lock()

@@ -1,0 +1,137 @@
+"""Expected wall time of a sweep, from the epoch costs `benchmarks/epoch_cost.py` measured.
+
+    python -m mjx_skills.sweep --experiment fig6_3 --epochs 100 --seeds 5 --estimate
+
+The model, per cell (task, method, seeds, epochs):
+- an epoch costs what `epoch_cost.py` measured for the method on pick_move at that number
+  of seeds (linear between the measured seed counts, and beyond them from the last two), on
+  the number of cores the cell gets (`cores_per_job`: rows measured with `--cores 1` for
+  two cells at once on two cores);
+- the steps of the episodes scale with the task's episode length (pick_move has 50), the
+  updates do not: epoch = updates + (epoch - updates) x length / 50;
+- DDPG+HER+SL's epochs cost between its eps = 1 and eps = 0.001 epochs in proportion to
+  eps, which decays linearly over `eps_decay_epochs` (the search runs only where it is
+  used: `search.search_where`);
+- plus the compile once per cell.
+Cells are then given to `jobs` workers longest first; the estimate is the last worker's end.
+Budgets other than the default (envs, cycles, updates, evaluation episodes) are not modelled.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import heapq
+import json
+from pathlib import Path
+
+from mjx_skills.experiments import Cell, Experiment
+
+RESULTS = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "epoch_cost.jsonl"
+REFERENCE_LENGTH = 50
+"""Episode length of pick_move, the task the epoch costs are measured on."""
+
+
+def load_rows(path: Path = RESULTS) -> list[dict]:
+    """The measured rows (one per variant, seeds and cores); a clear error when missing."""
+    if not path.exists():
+        raise FileNotFoundError(f"{path} is missing: run python benchmarks/epoch_cost.py first")
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    return [r for r in rows if "variant" in r]
+
+
+def _interpolate(points: dict[int, float], seeds: int) -> float:
+    xs = sorted(points)
+    if seeds in points or len(xs) == 1:
+        return points.get(seeds, points[xs[0]] * seeds / xs[0])
+    lo = max([x for x in xs if x < seeds], default=xs[0])
+    hi = min([x for x in xs if x > seeds], default=xs[-1])
+    if lo == hi:  # outside the measured range: the last two points' line
+        lo, hi = (xs[0], xs[1]) if seeds < xs[0] else (xs[-2], xs[-1])
+    return points[lo] + (points[hi] - points[lo]) * (seeds - lo) / (hi - lo)
+
+
+@dataclasses.dataclass(frozen=True)
+class CostTable:
+    rows: tuple[dict, ...]
+    cores: int
+    """Cores each cell runs on (the rows measured on that many are used)."""
+
+    def _rows(self, variant: str) -> list[dict]:
+        rows = [r for r in self.rows if r["variant"] == variant and r["cores"] == self.cores]
+        if not rows:
+            have = sorted({(r["variant"], r["cores"]) for r in self.rows})
+            raise ValueError(f"no epoch cost measured for {variant!r} on {self.cores} core(s); "
+                             f"measured: {have}")  # fmt: skip
+        return rows
+
+    def epoch_s(self, variant: str, seeds: int, length: int = REFERENCE_LENGTH) -> float:
+        rows = self._rows(variant)
+        epoch = _interpolate({r["seeds"]: r["epoch_s"] for r in rows}, seeds)
+        split = [r for r in rows if "updates_s" in r]
+        updates_share = split[0]["updates_s"] / split[0]["epoch_s"] if split else 0.0
+        return epoch * (updates_share + (1 - updates_share) * length / REFERENCE_LENGTH)
+
+    def compile_s(self, variant: str) -> float:
+        return max(r["compile_s"] for r in self._rows(variant))
+
+
+def cell_seconds(cell: Cell, table: CostTable) -> float:
+    """Expected wall seconds of one training cell."""
+    from mjx_skills.config import SearchConfig
+    from mjx_skills.envs.registry import ENVS
+
+    length = ENVS[cell.task].default_episode_length
+    episode = dict(cell.train)
+    if episode.get("episode_length"):
+        length = episode["episode_length"]
+    if cell.method != "ddpg_her_sl":
+        return table.compile_s(cell.method) + cell.epochs * table.epoch_s(
+            cell.method, cell.seeds, length
+        )
+    search = dataclasses.replace(SearchConfig(), **dict(dict(cell.options).get("search", ())))
+    if search.explorer == "scripted":
+        return table.compile_s("oracle") + cell.epochs * table.epoch_s("oracle", cell.seeds, length)
+    full = table.epoch_s("sl_eps1", cell.seeds, length)
+    least = table.epoch_s("sl_eps0", cell.seeds, length)
+    total = 0.0
+    for epoch in range(cell.epochs):
+        frac = min(epoch / search.eps_decay_epochs, 1.0)
+        eps = search.eps_start + frac * (search.eps_end - search.eps_start)
+        total += least + (full - least) * eps
+    return table.compile_s("sl_eps1") + total
+
+
+def makespan(seconds: list[float], jobs: int) -> float:
+    """Wall time of independent jobs on `jobs` workers, longest first to the first free."""
+    free = [0.0] * max(jobs, 1)
+    for s in sorted(seconds, reverse=True):
+        heapq.heapreplace(free, free[0] + s)
+    return max(free)
+
+
+def estimate(exp: Experiment, jobs: int, rows: list[dict] | None = None) -> dict:
+    """{cells: {name: s}, serial_s, wall_s, jobs, cores_per_job} for a training experiment."""
+    from mjx_skills.workers import usable_cores
+
+    rows = rows if rows is not None else load_rows()
+    want = max(1, usable_cores() // max(jobs, 1))
+    # The measured core count nearest to what each cell gets here.
+    cores = min({r["cores"] for r in rows}, key=lambda c: (abs(c - want), c))
+    table = CostTable(tuple(rows), cores)
+    cells = {c.name: cell_seconds(c, table) for c in exp.cells()}
+    return {"experiment": exp.name, "jobs": jobs, "cores_per_job": cores,
+            "cells": {k: round(v) for k, v in cells.items()},
+            "serial_s": round(sum(cells.values())),
+            "wall_s": round(makespan(list(cells.values()), jobs))}  # fmt: skip
+
+
+def report(exp: Experiment, jobs: int) -> str:
+    """Human-readable estimate; the last line is the estimate as JSON."""
+    if exp.kind != "train":
+        raise SystemExit(f"error: --estimate models training experiments; {exp.name} is {exp.kind}")
+    est = estimate(exp, jobs)
+    lines = [f"{name:50s} {s / 60:6.1f} min" for name, s in est["cells"].items()]
+    lines.append(f"{exp.name}: {len(est['cells'])} cells, {est['wall_s'] / 3600:.2f} h with "
+                 f"--jobs {jobs} ({est['cores_per_job']} core(s) each; "
+                 f"{est['serial_s'] / 3600:.2f} h of cell time)")  # fmt: skip
+    return "\n".join([*lines, json.dumps(est)])
