@@ -1,12 +1,13 @@
 """Look-ahead search decisions per second, and the search time per 50-step episode against
 the thesis's (17 / 71 / 286 s at branching 5 / 10 / 15, height 3).
 
-    python benchmarks/search.py [--library experiments/skill_library] [--searches-per-episode 10]
+    python benchmarks/search.py [--library experiments/skill_library] [--searches-per-episode 15]
 
 One JSON row per (K, batch): a decision is one env's best first edge. `episode_search_s`
 is the search time one env's 50-step episode costs when `searches_per_episode` decisions
-search (DDPG+HER+SL at eps = 1 searched at 20-26 % of the steps on pick_move, i.e. 10-13 of
-50; the default 10 is the thesis's "skills run for up to 10 steps"). Every size is timed
+search. The default 15 is the upper end of what the training logs show at eps = 1 (14-16
+searches per 50-step episode in the committed curves' first epochs; 11.5-14 in
+benchmarks/epoch_cost.py's `searches_share`). Every size is timed
 with the default leaf states (`leaf_state="predicted"`: the coarse model on every level)
 and with `leaf_state="goal"` (the last level's states are the skills' goals, no model).
 The last line is the default's row for K = 5, batch 256.
@@ -49,7 +50,7 @@ def measure(lib, env, obs, goal, K: int, batch: int, leaf: str, repeats: int = 3
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--library", default=str(library.DEFAULT_DIR))
-    parser.add_argument("--searches-per-episode", type=float, default=10.0)
+    parser.add_argument("--searches-per-episode", type=float, default=15.0)
     parser.add_argument("--task", default="pick_move")
     args = parser.parse_args()
     compile_cache.enable()

@@ -29,6 +29,7 @@ from mjx_skills import __version__, ddpg
 from mjx_skills.config import DDPGConfig, LibraryConfig, from_dict
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, BaxterEnv
 from mjx_skills.envs.registry import SKILLS, make
+from mjx_skills.grouped import apply_per_row, select
 from mjx_skills.nets import CoarseDynamics, SuccessClassifier
 
 LIBRARIES = {
@@ -94,45 +95,41 @@ class SkillLibrary:
             raise ValueError(f"unknown skill {name!r}; this library has: {', '.join(self.names)}")
         return self.names.index(name)
 
-    def _each(self, fn, tree: Any, *rows: jax.Array) -> jax.Array:
-        """fn(skill_params, *rows) for every skill of the library -> (K, B, ...). With three
-        small skills this costs less than gathering each row's parameters, which would copy
-        a whole network per row (a search asks for thousands of rows)."""
-        return jax.vmap(lambda p: fn(p, *rows))(tree)
-
     def policy_action(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """skill (B,) int, obs (B, obs_dim), goal (B, 3) -> deterministic actions (B, 4)."""
         act = lambda p, o, g: ddpg.act(p, o, g, self.ddpg_config)
-        return _select(self._each(act, self.policy, obs, goal), skill)
+        return apply_per_row(act, self.policy, skill, obs, goal)
 
     def q(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Q^i(s, g, pi^i(s, g)) per row: (B,)."""
         cfg = self.ddpg_config
         value = lambda p, o, g: ddpg.q_value(p, o, g, ddpg.act(p, o, g, cfg), cfg)
-        return _select(self._each(value, self.policy, obs, goal), skill)
+        return apply_per_row(value, self.policy, skill, obs, goal)
 
-    def _model_inputs(self, obs, goal):
-        """(K, B, .) normalised inputs of every skill's models."""
-        x = jnp.concatenate([obs, goal], axis=-1)
-        xn = (x - self.input_norm.mean[:, None]) / self.input_norm.std[:, None]
-        d = obs.shape[-1]
-        return xn[..., :d], xn[..., d:]
+    def _model(self, net: Any, params: Any, skill: jax.Array, obs: jax.Array, goal: jax.Array):
+        """A skill model's output per row from its normalised inputs (start state, goal)."""
+
+        def apply(p, o, g):
+            params, norm = p
+            x = (jnp.concatenate([o, g], axis=-1) - norm.mean) / norm.std
+            d = o.shape[-1]
+            return net.apply(params, x[..., :d], x[..., d:])
+
+        return apply_per_row(apply, (params, self.input_norm), skill, obs, goal)
 
     def success_prob(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Classifier's probability that the skill reaches `goal` from `obs`: (B,)."""
-        o, g = self._model_inputs(obs, goal)
         net = SuccessClassifier(tuple(self.config.classifier_hidden))
-        logits = jax.vmap(net.apply)(self.classifier, o, g)
+        logits = self._model(net, self.classifier, skill, obs, goal)
         # Clipped: a sigmoid of a very negative logit is a subnormal float, and subnormals
         # slow a CPU's arithmetic down by orders of magnitude.
-        return jax.nn.sigmoid(jnp.clip(_select(logits, skill), -30.0, 30.0))
+        return jax.nn.sigmoid(jnp.clip(logits, -30.0, 30.0))
 
     def next_state(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Coarse model's terminal observation (B, obs_dim): a full observation any skill
         accepts; dimensions the skill does not change are copied from `obs`."""
-        o, g = self._model_inputs(obs, goal)
         net = CoarseDynamics(obs.shape[-1], tuple(self.config.model_hidden))
-        delta_n = _select(jax.vmap(net.apply)(self.dynamics, o, g), skill)
+        delta_n = self._model(net, self.dynamics, skill, obs, goal)
         delta = delta_n * self.delta_norm.std[skill] + self.delta_norm.mean[skill]
         base = anchor_point(self.config.anchor, obs, goal)
         return consistent(obs, jnp.where(self.state_mask[skill], base + delta, obs))
@@ -157,7 +154,7 @@ class SkillLibrary:
             d = jnp.sum(q * q, -1)[:, None] - 2.0 * q @ k.T + jnp.sum(k * k, -1)[None]
             return jnp.argmin(jnp.where(valid[None], d, jnp.inf), axis=1)
 
-        idx = _select(
+        idx = select(
             jax.vmap(nearest)(self.memory_keys, self.memory_valid, self.memory_key_mask), skill
         )
         found = self.memory_next[skill, idx]
@@ -175,17 +172,17 @@ class SkillLibrary:
         goals = jnp.stack(
             [env.goal_from_param(param[..., : env.param_dim], obs) for env in self.envs]
         )
-        return _select(goals, skill)
+        return select(goals, skill)
 
     def terminated(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Whether each env's running skill has stopped: (B,) bool."""
         done = jnp.stack([env.terminated(obs, goal) for env in self.envs])
-        return _select(done, skill)
+        return select(done, skill)
 
     def reached(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Whether each env's skill is at its goal (its own success predicate): (B,) bool."""
         at = jnp.stack([env.is_success(env.achieved_from_obs(obs), goal) for env in self.envs])
-        return _select(at, skill)
+        return select(at, skill)
 
     def allowed(self, obs: jax.Array) -> jax.Array:
         """(..., K) bool: the skills that may start here. Transfer needs the cube in hand;
@@ -197,11 +194,6 @@ def allowed_skills(names: tuple[str, ...], held: jax.Array) -> jax.Array:
     """held (...,) bool -> (..., K) bool: transfer with the cube in hand, else the others."""
     is_transfer = jnp.array([name == "transfer" for name in names])
     return jnp.where(held[..., None], is_transfer, ~is_transfer)
-
-
-def _select(stacked: jax.Array, skill: jax.Array) -> jax.Array:
-    """stacked (K, B, ...), skill (B,) -> (B, ...): row skill[b] for env b."""
-    return jnp.take_along_axis(stacked, skill.reshape(1, -1, *[1] * (stacked.ndim - 2)), 0)[0]
 
 
 def anchor_point(anchor: str, obs: jax.Array, goal: jax.Array) -> jax.Array:

@@ -220,3 +220,21 @@ def test_save_load_round_trip_and_refusals(constructed, tmp_path):
     (path / "manifest.json").unlink()
     with pytest.raises(ValueError, match="half-written"):
         library.load(path)
+
+
+@pytest.mark.parametrize("rows", [10, 600, 5000])
+@pytest.mark.parametrize("skills_used", [(0, 1, 2), (2,)])
+def test_rows_grouped_by_skill_get_their_own_skills_network(rows, skills_used):
+    """apply_per_row equals running each row through its own skill's weights, whether it
+    selects (few rows) or groups rows by skill into blocks (many; skills may be unused)."""
+    from mjx_skills.grouped import apply_per_row
+
+    rng = np.random.default_rng(rows)
+    weights = jnp.asarray(rng.normal(size=(3, 5, 4)), jnp.float32)
+    bias = jnp.asarray(rng.normal(size=(3, 4)), jnp.float32)
+    skill = jnp.asarray(rng.choice(skills_used, rows), jnp.int32)
+    x = jnp.asarray(rng.normal(size=(rows, 5)), jnp.float32)
+    fn = lambda p, x: jnp.tanh(x @ p[0] + p[1])
+    got = jax.jit(lambda s, x: apply_per_row(fn, (weights, bias), s, x))(skill, x)
+    want = np.tanh(np.einsum("ri,rio->ro", x, np.asarray(weights)[skill]) + np.asarray(bias)[skill])
+    np.testing.assert_allclose(got, want, atol=1e-5)
