@@ -5,9 +5,9 @@ the thesis's (17 / 71 / 286 s at branching 5 / 10 / 15, height 3).
 
 One JSON row per (K, batch): a decision is one env's best first edge. `episode_search_s`
 is the search time one env's 50-step episode costs when `searches_per_episode` decisions
-search. The default 15 is the upper end of what the training logs show at eps = 1 (14-16
-searches per 50-step episode in the committed curves' first epochs; 11.5-14 in
-benchmarks/epoch_cost.py's `searches_share`). Every size is timed
+search. The default 15 is above what the training logs show at eps = 1 on pick_move: 13.6-14.9
+searches per 50-step episode in epoch 1 of experiments/results/pick_move_ddpg_her_sl.jsonl
+(`explore_searches` x 50), 11.5-14 in benchmarks/epoch_cost.py's `searches_share`. Every size is timed
 with the default leaf states (`leaf_state="predicted"`: the coarse model on every level)
 and with `leaf_state="goal"` (the last level's states are the skills' goals, no model).
 The last line is the default's row for K = 5, batch 256.
