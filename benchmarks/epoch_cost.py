@@ -9,8 +9,9 @@ searches) and at 0.001 (`sl_eps0`: the late epochs, almost no search), and the s
 oracle explorer at eps 1 (`oracle`); `sl_eps1_whole` searches every env's tree whenever one
 env searches (`--search.search-chunk 1`), against the default chunks. The default budget (4 envs x 4 cycles + 20 evaluation
 episodes per epoch). Each epoch program is compiled first (`compile_s`, with the persistent
-cache off so that it is a real compile), run once to warm up, then timed over `--epochs`
-epochs: `epoch_s` is their median (this machine is a VM whose speed varies by 10-20 %).
+cache off so that it is a real compile) and run once to warm up; then the variants' epochs
+are timed round-robin, `--epochs` of each: `epoch_s` is their median (this machine is a VM
+whose speed drifts by 10-40 % within minutes; round-robin timing keeps the ratios fair).
 
 Breakdown (at `--breakdown-seeds`), from separately compiled pieces of the same epoch, all
 vmapped over seeds as the trainer does:
@@ -77,7 +78,28 @@ def timed(fn, *args, repeats: int) -> tuple[float, float, object]:
     return compile_s, best, out
 
 
-def measure(variant: str, task: str, seeds: int, epochs: int, breakdown: bool) -> dict:
+@dataclasses.dataclass
+class Run:
+    """One variant's compiled epoch and its carry, after a warm-up epoch."""
+
+    learner: object
+    env: object
+    cfg: TrainConfig
+    compiled: object
+    carry: object
+    aux: object
+    compile_s: float
+    metrics: dict = dataclasses.field(default_factory=dict)
+    times: list = dataclasses.field(default_factory=list)
+
+    def epoch(self) -> None:
+        t0 = time.perf_counter()
+        self.carry, self.metrics = self.compiled(self.carry, self.aux)
+        jax.block_until_ready(self.metrics)
+        self.times.append(time.perf_counter() - t0)
+
+
+def prepare(variant: str, task: str, seeds: int) -> Run:
     method, options = options_of(variant)
     spec = methods.get(method)
     cfg = TrainConfig(task=task, seeds=seeds, progress=False)
@@ -85,22 +107,28 @@ def measure(variant: str, task: str, seeds: int, epochs: int, breakdown: bool) -
     env, learner, epoch_fn, carry = build(method, cfg, EnvConfig(), options, aux)
     t0 = time.perf_counter()
     compiled = epoch_fn.lower(carry, aux).compile()
-    compile_s = time.perf_counter() - t0
-    carry, metrics = compiled(carry, aux)  # warm-up: the first epoch
-    jax.block_until_ready(metrics)
-    times = []
+    run = Run(learner, env, cfg, compiled, carry, aux, time.perf_counter() - t0)
+    run.epoch()  # warm-up: the first epoch
+    run.times.clear()
+    return run
+
+
+def measure(variants: list[str], task: str, seeds: int, epochs: int, breakdown: bool):
+    """-> a row per variant. The variants' epochs are timed round-robin (one epoch of each
+    in turn), so a drift of the machine's speed reaches every variant alike."""
+    runs = {v: prepare(v, task, seeds) for v in variants}
     for _ in range(epochs):
-        t0 = time.perf_counter()
-        carry, metrics = compiled(carry, aux)
-        jax.block_until_ready(metrics)
-        times.append(time.perf_counter() - t0)
-    epoch_s = statistics.median(times)
-    row = {"variant": variant, "task": task, "seeds": seeds, "epoch_s": round(epoch_s, 3),
-           "compile_s": round(compile_s, 1), "cores": usable_cores(),
-           "searches_share": round(float(jnp.mean(metrics.get("explore_searches", 0.0))), 4)}  # fmt: skip
-    if breakdown:
-        row.update(pieces(learner, env, cfg, carry, aux, epoch_s))
-    return row
+        for run in runs.values():
+            run.epoch()
+    for variant, run in runs.items():
+        epoch_s = statistics.median(run.times)
+        share = float(jnp.mean(run.metrics.get("explore_searches", 0.0)))
+        row = {"variant": variant, "task": task, "seeds": seeds, "epoch_s": round(epoch_s, 3),
+               "compile_s": round(run.compile_s, 1), "cores": usable_cores(),
+               "searches_share": round(share, 4)}  # fmt: skip
+        if breakdown:
+            row.update(pieces(run.learner, run.env, run.cfg, run.carry, run.aux, epoch_s))
+        yield row
 
 
 def pieces(learner, env, cfg: TrainConfig, carry, aux, epoch_s: float) -> dict:
@@ -156,9 +184,9 @@ def main() -> None:
     args = parser.parse_args()
     rows = {}
     for seeds in args.seeds:
-        for variant in args.variants:
-            row = measure(variant, args.task, seeds, args.epochs, seeds == args.breakdown_seeds)
-            rows[variant, seeds] = row
+        breakdown = seeds == args.breakdown_seeds
+        for row in measure(args.variants, args.task, seeds, args.epochs, breakdown):
+            rows[row["variant"], seeds] = row
             print(json.dumps(row), flush=True)
     s = args.breakdown_seeds if ("ddpg_her", args.breakdown_seeds) in rows else args.seeds[0]
     summary = {"task": args.task, "seeds": s, "jax": jax.__version__, "cores": usable_cores()}

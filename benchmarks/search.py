@@ -64,6 +64,7 @@ def main() -> None:
         per_decision = row["search_s"] / batch
         episode = per_decision * args.searches_per_episode
         row.update(decisions_per_s=round(1.0 / per_decision, 1), episode_search_s=round(episode, 5),
+                   searches_per_episode=args.searches_per_episode,
                    speedup_vs_thesis=round(THESIS_EPISODE_S[K] / episode, 1), cores=os.cpu_count(),
                    device=jax.default_backend())  # fmt: skip
         row["search_s"] = round(row["search_s"], 4)

@@ -315,11 +315,11 @@ class SearchConfig:
     stall_radius: float = 0.03
     """... and prunes edges whose straight path passes within this (m) of it."""
     search_chunk: float = 0.25
-    """Envs searched at once, as a share of each seed's envs (rounded up, at least one): the
-    envs that decide to search are searched in chunks of this size, one after another, so a
-    step costs the search of the envs that search, not of the whole batch. 0.25 suits about
-    one decision in four env steps at eps = 1 (measured: benchmarks/epoch_cost.py); 1.0
-    searches every env's tree at once whenever one env searches."""
+    """Envs searched at once, as a share of all envs of all seeds (rounded up, at least
+    one): the envs that decide to search are searched in chunks of this size, one after
+    another, so a step costs the search of the envs that search, not of the whole batch.
+    0.25 suits about one decision in four env steps at eps = 1 (measured:
+    benchmarks/epoch_cost.py); 1.0 searches every env's tree at once whenever one searches."""
     skill_steps: int = 10
     """w: a searched skill runs until it terminates or for this many steps (thesis: 10)."""
     eps_start: float = 1.0

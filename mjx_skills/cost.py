@@ -109,12 +109,15 @@ def makespan(seconds: list[float], jobs: int) -> float:
     return max(free)
 
 
-def estimate(exp: Experiment, jobs: int, rows: list[dict] | None = None) -> dict:
-    """{cells: {name: s}, serial_s, wall_s, jobs, cores_per_job} for a training experiment."""
+def estimate(
+    exp: Experiment, jobs: int, rows: list[dict] | None = None, cores: int | None = None
+) -> dict:
+    """{cells: {name: s}, serial_s, wall_s, jobs, cores_per_job} for a training experiment
+    on `cores` cores (default: the ones this process may use)."""
     from mjx_skills.workers import usable_cores
 
     rows = rows if rows is not None else load_rows()
-    want = max(1, usable_cores() // max(jobs, 1))
+    want = max(1, (cores or usable_cores()) // max(jobs, 1))
     # The measured core count nearest to what each cell gets here.
     cores = min({r["cores"] for r in rows}, key=lambda c: (abs(c - want), c))
     table = CostTable(tuple(rows), cores)

@@ -49,28 +49,30 @@ class Behaviour(NamedTuple):
 
 
 SEED_AXIS = "seeds"
-"""Name of the vmap axis over seeds (the trainer vmaps the whole epoch over it)."""
+"""Name of the vmap axis over seeds (the trainer vmaps the whole epoch over it). Costly work
+that a behaviour guards must not branch on a predicate batched over seeds: a `lax.cond` on
+a batched predicate becomes a select that evaluates both branches at every step (JAX's vmap
+rule). Pool the seeds' inputs instead (`gather_seeds`), decide once, and hand each seed its
+part back (`own_seed`), as `search.search_where` does."""
 
 
-def max_over_seeds(x: jax.Array) -> jax.Array:
-    """`x` reduced with max over the seed axis when the program is vmapped over seeds
-    (`SEED_AXIS`): the result is the same for every seed and not batched. Else `x`."""
+def gather_seeds(tree: Any) -> Any:
+    """Every seed's copy of `tree`, stacked on a new leading axis (S, ...) and not batched,
+    when the program is vmapped over seeds: work on it is done once for all seeds. Else
+    `tree` with a leading axis of 1."""
     try:
-        return jax.lax.pmax(x, SEED_AXIS)
-    except NameError:  # not vmapped over seeds (a benchmark, eval_shape)
-        return x
+        return jax.tree.map(lambda x: jax.lax.all_gather(x, SEED_AXIS), tree)
+    except NameError:
+        return jax.tree.map(lambda x: x[None], tree)
 
 
-def any_in_program(pred: jax.Array) -> jax.Array:
-    """() bool: whether `pred` holds anywhere in the program: over its own axes and, when the
-    program is vmapped over seeds, over every seed.
-
-    Use it as the predicate of a `lax.cond` that guards costly work inside a behaviour:
-    reduced over the seed axis, the predicate is not batched, so the cond stays a real
-    branch. A cond on a batched predicate becomes a select that evaluates both branches at
-    every step (JAX's vmap rule for `cond`).
-    """
-    return max_over_seeds(jnp.any(pred).astype(jnp.int32)) > 0
+def own_seed(tree: Any) -> Any:
+    """The inverse of `gather_seeds`: this seed's row of a (S, ...) tree."""
+    try:
+        i = jax.lax.axis_index(SEED_AXIS)
+    except NameError:
+        i = 0
+    return jax.tree.map(lambda x: x[i], tree)
 
 
 Policy = Callable[[jax.Array, jax.Array, jax.Array], jax.Array]

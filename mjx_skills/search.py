@@ -12,9 +12,10 @@ Optionally some transfer goals are waypoints anywhere in reach, and edges throug
 the explorer remembered are pruned (`stalls.py`). The search returns the first (skill,
 goal) of the best path per env, and flags envs whose every first edge was pruned.
 
-`search_where` runs it only for the envs that decide to search, in chunks (`search_chunk`),
-and not at all at a step where no env of any seed searches: each env draws its edges from
-its own key, so an env's result does not depend on which other envs search with it.
+`search_where` runs it only for the envs that decide to search, pooled over the seeds and
+in chunks (`search_chunk`), and not at all at a step where no env of any seed searches:
+each env draws its edges from its own key, so an env's result does not depend on which
+other envs search with it.
 """
 
 from __future__ import annotations
@@ -219,32 +220,39 @@ def search_where(
 ) -> SearchResult:
     """`search` for the envs where `where` (B,) holds; the others get `no_search`.
 
-    Env i searches with `env_keys(key, B)[i]`, as in `search`, whatever else searches. The
-    envs that search are gathered into chunks of ceil(`cfg.search_chunk` x B) and searched
-    one chunk after another in a `while_loop` whose trip count is the largest over seeds (`rollout.max_over_seeds`),
-    so inside the trainer's vmap over seeds it stays a loop and costs nothing at a step
-    where no env of any seed searches. obs (B, obs_dim), task_goal (B, 3), obstacles
-    (B, M, 3) or None."""
+    Env i searches with `env_keys(key, B)[i]`, as in `search`, whatever else searches.
+    Inside the trainer's vmap over seeds the envs of every seed are pooled
+    (`rollout.gather_seeds`): the S x B envs' searching ones are gathered into chunks of
+    ceil(`cfg.search_chunk` x S x B) and searched once for all seeds, one chunk after
+    another in a `while_loop` whose trip count is not batched. So a step costs the search
+    of the envs that search, and nothing where no env of any seed searches. obs
+    (B, obs_dim), task_goal (B, 3), obstacles (B, M, 3) or None."""
     B = obs.shape[0]
-    keys = env_keys(key, B)
-    chunk = min(B, max(1, math.ceil(cfg.search_chunk * B)))
+    mine = (where, obs, task_goal, env_keys(key, B), obstacles)
+    pooled = jax.tree.map(lambda x: x.reshape(-1, *x.shape[2:]), rollout.gather_seeds(mine))
+    found = _search_chunks(lib, cfg, env, *pooled)
+    return rollout.own_seed(jax.tree.map(lambda x: x.reshape(-1, B, *x.shape[1:]), found))
+
+
+def _search_chunks(lib, cfg, env, where, obs, task_goal, keys, obstacles) -> SearchResult:
+    """`search_envs` on the rows where `where` (N,) holds, in chunks; `no_search` elsewhere."""
+    N = obs.shape[0]
+    chunk = min(N, max(1, math.ceil(cfg.search_chunk * N)))
     count = jnp.sum(where.astype(jnp.int32))
-    rounds = rollout.max_over_seeds((count + chunk - 1) // chunk)
-    # The searching envs first (stable order), padded to whole chunks.
+    rounds = (count + chunk - 1) // chunk
+    # The searching rows first (stable order), padded to whole chunks.
     order = jnp.argsort(~where, stable=True)
-    order = jnp.concatenate([order, jnp.zeros((-B % chunk,), order.dtype)])
-    rows_of = lambda r: jax.lax.dynamic_slice_in_dim(order, r * chunk, chunk)
+    order = jnp.concatenate([order, jnp.zeros((-N % chunk,), order.dtype)])
 
     def body(carry):
         r, found = carry
-        rows = rows_of(r)
+        rows = jax.lax.dynamic_slice_in_dim(order, r * chunk, chunk)
         valid = r * chunk + jnp.arange(chunk) < count
         part = search_envs(lib, cfg, env, obs[rows], task_goal[rows], keys[rows],
                            None if obstacles is None else obstacles[rows])  # fmt: skip
-        at = jnp.where(valid, rows, B)  # out of range: dropped
+        at = jnp.where(valid, rows, N)  # out of range: dropped
         found = jax.tree.map(lambda f, p: f.at[at].set(p, mode="drop"), found, part)
         return r + 1, found
 
-    start = (jnp.zeros((), rounds.dtype), no_search(B))
-    _, found = jax.lax.while_loop(lambda c: c[0] < rounds, body, start)
-    return found
+    start = (jnp.zeros((), rounds.dtype), no_search(N))
+    return jax.lax.while_loop(lambda c: c[0] < rounds, body, start)[1]

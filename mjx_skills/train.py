@@ -167,7 +167,7 @@ def build(
 
 def over_seeds(fn, in_axes=0):
     """`fn` vmapped over a leading seed axis named `rollout.SEED_AXIS`, so that a behaviour's
-    guarded branches can reduce their predicate over seeds (`rollout.any_in_program`)."""
+    costly work can be pooled over seeds (`rollout.gather_seeds`, `search.search_where`)."""
     return jax.vmap(fn, in_axes=in_axes, axis_name=rollout.SEED_AXIS)
 
 

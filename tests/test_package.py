@@ -26,3 +26,17 @@ def test_importing_the_package_has_no_side_effects():
     code = "import jax, mjx_skills.train; print(jax.config.jax_compilation_cache_dir)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "None"
+
+
+def test_the_readme_speed_section_is_what_the_committed_results_give():
+    """Every figure of README.md's "Speed" section is computed from committed benchmark
+    results by benchmarks/speed_report.py (run it with --write after a benchmark)."""
+    import runpy
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    report = runpy.run_path(str(root / "benchmarks" / "speed_report.py"))
+    readme = (root / "README.md").read_text()
+    start = readme.index(report["BEGIN"])
+    end = readme.index(report["END"]) + len(report["END"])
+    assert readme[start:end] == report["section"](), "run python benchmarks/speed_report.py --write"

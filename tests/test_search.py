@@ -352,14 +352,21 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
     agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
     obs, goal = states(4, held=False)
     state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
-    cfg = SearchConfig(search_chunk=0.25)  # one env per round
+    cfg = SearchConfig(search_chunk=0.25)  # 2 of the 2 x 4 envs per round
     over_seeds = lambda f: jax.vmap(f, axis_name=rollout.SEED_AXIS)
-    # One env of one seed explores: one round, every level of the tree asked once.
+    # One env of one seed explores: one round, every level of the tree asked once, and the
+    # env gets what it would searching alone with its own key.
     lib = CountingLibrary()
     where = jnp.zeros((2, 4), bool).at[1, 2].set(True)
-    jax.block_until_ready(over_seeds(
-        lambda w, o, g: search.search_where(lib, cfg, env, w, o, g, jax.random.PRNGKey(0))
-    )(where, jnp.stack([obs, obs]), jnp.stack([goal, goal])))  # fmt: skip
+    key = jax.random.PRNGKey(0)
+    found = over_seeds(
+        lambda w, o, g: search.search_where(lib, cfg, env, w, o, g, key)
+    )(where, jnp.stack([obs, obs]), jnp.stack([goal, goal]))  # fmt: skip
+    alone = search.search_envs(KnownLibrary(), cfg, env, obs[2:3], goal[2:3],
+                               search.env_keys(key, 4)[2:3])  # fmt: skip
+    assert np.all(found.all_pruned == ~np.asarray(where))
+    assert found.skill[1, 2] == alone.skill[0]
+    np.testing.assert_allclose(found.goal[1, 2], alone.goal[0], atol=1e-6)
     one_round = len(lib.calls)
     assert one_round >= cfg.height
     seeds = jax.random.split(jax.random.PRNGKey(0), 2)
@@ -375,6 +382,6 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
             return record["searches"]
 
         jax.block_until_ready(over_seeds(steps)(seeds))
-        # eps 0: never; eps 1: every env decides at the first step only (skills run w = 10
-        # steps), 4 rounds of one env.
+        # eps 0: never; eps 1: all 8 envs of the 2 seeds decide at the first step only
+        # (skills run w = 10 steps), pooled: 4 rounds of 2 envs (a quarter of 8).
         assert len(lib.calls) == (0 if eps == 0.0 else 4 * one_round), eps
