@@ -12,9 +12,8 @@ An experiment is a small TOML file in experiments/ (`experiments/NAME.toml`, rea
 `mjx_skills.experiments`): tasks x methods x libraries, a budget and option overrides. A
 cell is one (task, method, library) training run with all its seeds in one vmapped
 program (`runner.train_run`). Locally `--jobs N` cells run at once, each in its own worker
-process pinned to its share of the cores (`mjx_skills.workers`; default one cell per core:
-on 2 cores two cells at once finish 1.6-2x sooner than one at a time, README "Speed");
-results are the same bits whatever N is. With `--ray ADDRESS` or `--ray local` each cell is
+process (`mjx_skills.workers`; default one cell per core, `--pin` to pin each to its own
+cores; README "Speed" has the measured gain); results are the same bits whatever N is. With `--ray ADDRESS` or `--ray local` each cell is
 a Ray task (the `ray` extra). `--estimate` prints the expected wall time from the measured
 epoch costs (`mjx_skills.cost`) without training.
 
@@ -159,8 +158,11 @@ def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str) -> list[str
     return [done_dirs[c] for c in cells]
 
 
-def run_cells_local(cells: list[Cell], dirs: list[Path], jobs: int, progress: bool) -> list[str]:
-    """Every cell, `jobs` at a time (in pinned worker processes when jobs > 1) -> run dirs."""
+def run_cells_local(
+    cells: list[Cell], dirs: list[Path], jobs: int, progress: bool, pin: bool = False
+) -> list[str]:
+    """Every cell, `jobs` at a time (in worker processes when jobs > 1; `pin`: each on its
+    own cores) -> run dirs."""
     todo = [i for i, (c, d) in enumerate(zip(cells, dirs, strict=True))
             if not finished(cell_run_dir(d), c)]  # fmt: skip
     for i, cell in enumerate(cells):
@@ -174,7 +176,7 @@ def run_cells_local(cells: list[Cell], dirs: list[Path], jobs: int, progress: bo
     with tqdm(total=len(todo), desc=f"cells ({jobs} at once)", unit="cell",
               disable=not progress) as bar:  # fmt: skip
         calls = [(cells[i], str(dirs[i]), False) for i in todo]
-        for k, _ in run_pool(run_cell, calls, jobs):
+        for k, _ in run_pool(run_cell, calls, jobs, pin):
             bar.set_postfix_str(cells[todo[k]].name)
             bar.update(1)
     # Finished now, each in its own directory: read back in the experiment's order.
@@ -183,7 +185,7 @@ def run_cells_local(cells: list[Cell], dirs: list[Path], jobs: int, progress: bo
 
 def run_sweep(
     exp: Experiment, sweep_dir: Path, results: Path, overwrite: bool = False,
-    ray_address: str | None = None, progress: bool = True, jobs: int = 1,
+    ray_address: str | None = None, progress: bool = True, jobs: int = 1, pin: bool = False,
 ) -> tuple[Path, ...]:  # fmt: skip
     """Run every cell of `exp` (skipping finished ones) and write its results -> their files
     (NAME.csv and NAME.jsonl; a library experiment: NAME.csv)."""
@@ -195,7 +197,7 @@ def run_sweep(
     if ray_address:
         run_dirs = run_cells_ray(cells, dirs, ray_address)
     else:
-        run_dirs = run_cells_local(cells, dirs, jobs, progress)
+        run_dirs = run_cells_local(cells, dirs, jobs, progress, pin)
     if exp.kind == "library":
         from mjx_skills.skills import write_table
 
@@ -224,6 +226,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--jobs", type=int, default=None,
                    help="cells at once, each in a process pinned to its cores "
                    "(default: one per usable core)")  # fmt: skip
+    p.add_argument("--pin", action="store_true",
+                   help="pin each of the --jobs workers to its own cores (default: unpinned)")  # fmt: skip
     p.add_argument("--estimate", action="store_true",
                    help="print the expected wall time from measured epoch costs; no training")  # fmt: skip
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -256,7 +260,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     sweep_dir = args.sweep_dir or Path("runs") / "sweeps" / exp.name
     paths = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray,
-                      not args.no_progress, jobs)  # fmt: skip
+                      not args.no_progress, jobs, args.pin)  # fmt: skip
     print(f"{len(exp.cells())} cells done; results: {', '.join(map(str, paths))}")
 
 

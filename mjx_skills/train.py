@@ -11,6 +11,8 @@ The command line is in `mjx_skills.cli`; `python -m mjx_skills.train ...` runs i
 
 from __future__ import annotations
 
+import dataclasses
+from collections import OrderedDict
 from typing import Any
 
 import jax
@@ -143,6 +145,11 @@ def seed_keys(train: TrainConfig) -> jax.Array:
     return jnp.stack([jax.random.PRNGKey(train.seed + i) for i in range(train.seeds)])
 
 
+PROGRAMS_KEPT = 4
+"""Built programs kept per process (least recently used dropped first)."""
+_programs: OrderedDict = OrderedDict()
+
+
 def build(
     method: str,
     train: TrainConfig,
@@ -151,18 +158,37 @@ def build(
     aux: Any = None,
 ) -> tuple[Any, Learner, Any, TrainCarry]:
     """-> (env, learner, jitted train_epoch(carry, aux) vmapped over seeds, initial carry with
-    a leading seed axis). `options`: the method's option groups (defaults where missing)."""
+    a leading seed axis). `options`: the method's option groups (defaults where missing).
+
+    Compiled once per process: runs that differ only in what the program does not depend
+    on (epochs, first seed, output directory, progress, checkpoints) get the same jitted
+    epoch, so a sweep's second such cell does not compile again. (JAX's persistent cache
+    cannot help here: it does not store programs with host callbacks, and the native
+    physics is one.)"""
+    spec = methods.get(method)
+    options = {**spec.options, **(options or {})}
+    same = dataclasses.replace(train, epochs=1, seed=0, out="", progress=False, checkpoint_every=1)
+    key = (method, same, env_cfg, tuple(sorted(options.items())))
+    if key not in _programs:
+        _programs[key] = _build_program(spec, train, env_cfg, options)
+        while len(_programs) > PROGRAMS_KEPT:
+            _programs.popitem(last=False)
+    _programs.move_to_end(key)
+    env, learner, epoch_fn, init = _programs[key]
+    return env, learner, epoch_fn, committed(init(seed_keys(train), aux))
+
+
+def _build_program(spec: methods.Method, train: TrainConfig, env_cfg: EnvConfig, options: dict):
     from mjx_skills.envs import make
 
-    spec = methods.get(method)
     env = make(train.task, env_cfg)
     # Training-only start distributions (held starts) never reach the evaluation episodes.
     eval_env = make(train.task, env_cfg, held_start_prob=0.0) if env_cfg.held_start_prob else env
-    learner = spec.make_learner(env, train, **{**spec.options, **(options or {})})
+    learner = spec.make_learner(env, train, **options)
     epoch = over_seeds(make_train_epoch(learner, env, train, eval_env), in_axes=(0, None))
     epoch_fn = jax.jit(epoch, donate_argnums=0)
-    init = jax.vmap(lambda k: init_carry(learner, env, train, k, aux))
-    return env, learner, epoch_fn, committed(jax.jit(init)(seed_keys(train)))
+    init = jax.jit(jax.vmap(lambda k, aux: init_carry(learner, env, train, k, aux), (0, None)))
+    return env, learner, epoch_fn, init
 
 
 def over_seeds(fn, in_axes=0):

@@ -3,10 +3,13 @@
 A sweep's cells are independent training runs. On a small CPU machine one run leaves cores
 idle (XLA's compiles are single-threaded, and small batched programs do not use both cores
 of a 2-core machine), so `--jobs N` runs N cells at once, one per worker process. Each worker
-is started fresh (`spawn`: JAX must not be forked after it started its threads) and pinned
-with `os.sched_setaffinity` to its share of the cores before it imports JAX, so that two
-cells never fight over the same core; the native physics backend sizes its thread pool
-from the cores the process may use (`usable_cores`).
+is started fresh (`spawn`: JAX must not be forked after it started its threads). With `pin`
+(`--pin`) a worker is pinned with `os.sched_setaffinity` to its share of the cores before
+it imports JAX, so that two cells never share a core, and the native physics backend sizes
+its thread pool from the cores the process may use (`usable_cores`). Unpinned is the
+default, by measurement: a pinned worker keeps one core when the other has nothing left
+to run, and sweeps end with such a tail (README, "Speed": `benchmarks/sweep_parallel.py`
+times both).
 """
 
 from __future__ import annotations

@@ -96,7 +96,7 @@ def test_a_finished_sweep_skips_its_cells_and_keeps_its_results(finished_sweep):
 
 
 def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, tmp_path):
-    """--jobs 2: each cell in its own pinned worker process and its own directory; the cell
+    """--jobs 2 --pin: each cell in its own pinned worker process and directory; the cell
     interrupted before the sweep resumes, and its metrics are the bits a one-at-a-time
     sweep gave (`finished_sweep`, the same cell also interrupted and resumed)."""
     _, _, serial_run, _ = finished_sweep
@@ -107,7 +107,7 @@ def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, 
         cells[0].run_args(str(tmp_path / "cells" / cells[0].name), progress=False), stop_after=1
     )
     csv_path, jsonl_path = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results",
-                                           progress=False, jobs=2)  # fmt: skip
+                                           progress=False, jobs=2, pin=True)  # fmt: skip
     run_dirs = [sweep.cell_run_dir(tmp_path / "cells" / c.name) for c in cells]
     assert run_dirs[0] == interrupted and len(set(run_dirs)) == 2
     for run_dir in run_dirs:

@@ -64,6 +64,22 @@ def test_seeds_differ(tiny_program):
     assert history[0]["critic_loss"][0] != history[0]["critic_loss"][1]
 
 
+def test_runs_differing_only_in_budget_and_seed_share_one_compiled_epoch(tmp_path):
+    """A sweep's cells that differ in epochs, first seed or output compile once per process;
+    another number of seeds (another shape) is another program."""
+    cfg = TrainConfig(**TINY)
+    _, _, fn_a, carry_a = train_mod.build("ddpg_her", cfg, EnvConfig())
+    other = dataclasses.replace(cfg, epochs=7, seed=3, out=str(tmp_path), checkpoint_every=2)
+    _, _, fn_b, carry_b = train_mod.build("ddpg_her", other, EnvConfig())
+    assert fn_b is fn_a
+    assert not np.array_equal(carry_a.key, carry_b.key)  # its own seeds
+    for carry in (carry_a, carry_b):
+        jax.block_until_ready(fn_a(carry, None))
+    assert fn_a._cache_size() == 1
+    _, _, fn_c, _ = train_mod.build("ddpg_her", dataclasses.replace(cfg, seeds=2), EnvConfig())
+    assert fn_c is not fn_a
+
+
 def _rows(run_dir):
     return [{k: v for k, v in row.items() if k != "wall_s"} for row in read_metrics(run_dir)]
 
