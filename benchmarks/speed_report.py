@@ -71,11 +71,17 @@ def epoch_cost() -> list[str]:
 
 
 def sweeps() -> list[str]:
-    par = rows("sweep_parallel")[-1]
-    out = [f"**Two cells at once** (`python benchmarks/sweep_parallel.py`, the `{par['experiment']}` "
-           f"experiment, {par['cells']} cells, compile cache off): `--jobs 1` {par['serial_s']:.0f} s, "
-           f"`--jobs {par['jobs']}` {par['parallel_s']:.0f} s, **{par['speedup']:.2f}x**; "
-           f"results {'bitwise identical' if par['identical'] else 'DIFFERENT'}."]  # fmt: skip
+    out = ["**Cells at once** (`python benchmarks/sweep_parallel.py --experiment NAME [--epochs E]`; "
+           "compile cache off; each sweep from scratch):", "",
+           "| experiment | cells | `--jobs 1` | `--jobs 2` (default, unpinned) | `--jobs 2 --pin` "
+           "| results |", "|---|---|---|---|---|---|"]  # fmt: skip
+    for par in rows("sweep_parallel"):
+        name = par["experiment"] + (f", {par['epochs']} epochs" if par.get("epochs") else "")
+        pinned = (f"{par['pinned_s']:.0f} s ({par['speedup_pinned']:.2f}x)" if "pinned_s" in par
+                  else "-")  # fmt: skip
+        out.append(f"| {name} | {par['cells']} | {par['serial_s']:.0f} s | {par['parallel_s']:.0f} s "
+                   f"({par['speedup']:.2f}x) | {pinned} | "
+                   f"{'bitwise identical' if par['identical'] else 'DIFFERENT'} |")  # fmt: skip
     from mjx_skills import cost
     from mjx_skills.experiments import load_experiment
 

@@ -2,11 +2,12 @@
 
     python benchmarks/sweep_parallel.py [--experiment smoke] [--jobs 2] [--epochs E]
 
-Runs `python -m mjx_skills.sweep --experiment NAME` twice from scratch, in fresh
-directories, with JAX's persistent compilation cache off (both runs compile everything):
-`--jobs 1`, then `--jobs N`. Checks that both wrote the same results (every metric of every
-seed and epoch equal, bitwise, but the wall-clock column) and prints one JSON line:
-{"experiment", "cells", "jobs", "serial_s", "parallel_s", "speedup", "identical"}.
+Runs `python -m mjx_skills.sweep --experiment NAME` three times from scratch, in fresh
+directories, with JAX's persistent compilation cache off: `--jobs 1`, `--jobs N` (workers
+unpinned, the default) and `--jobs N --pin`. Checks that all wrote the same results (every
+metric of every seed and epoch equal, bitwise, but the wall-clock column) and prints one
+JSON line: {"experiment", "cells", "jobs", "serial_s", "parallel_s", "speedup",
+"pinned_s", "speedup_pinned", "identical"}.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pathlib import Path
 
 
 def run(experiment: str, jobs: int, root: Path, extra: list[str]) -> tuple[float, list[dict]]:
+    """Wall seconds of one sweep and its per-seed rows without the wall-clock column."""
     env = {**os.environ, "MJX_SKILLS_CACHE_DIR": "off"}
     cmd = [sys.executable, "-m", "mjx_skills.sweep", "--experiment", experiment,
            "--jobs", str(jobs), "--sweep-dir", str(root / "cells"),
@@ -43,12 +45,16 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         serial_s, serial = run(args.experiment, 1, Path(tmp) / "serial", extra)
         parallel_s, parallel = run(args.experiment, args.jobs, Path(tmp) / "parallel", extra)
+        pinned_s, pinned = run(args.experiment, args.jobs, Path(tmp) / "pinned", [*extra, "--pin"])
     key = lambda r: (r["task"], r["method"], r["library"], r["epoch"], r["seed"])
+    same = lambda a, b: sorted(a, key=key) == sorted(b, key=key)
     print(json.dumps({
         "experiment": args.experiment, "cells": len({key(r)[:3] for r in serial}),
         "jobs": args.jobs, "cores": os.cpu_count(), "serial_s": round(serial_s, 1),
-        "parallel_s": round(parallel_s, 1), "speedup": round(serial_s / parallel_s, 3),
-        "identical": sorted(serial, key=key) == sorted(parallel, key=key),
+        "epochs": args.epochs, "parallel_s": round(parallel_s, 1),
+        "speedup": round(serial_s / parallel_s, 3), "pinned_s": round(pinned_s, 1),
+        "speedup_pinned": round(serial_s / pinned_s, 3),
+        "identical": same(serial, parallel) and same(serial, pinned),
     }))  # fmt: skip
 
 

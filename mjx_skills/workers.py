@@ -57,13 +57,14 @@ def _pin(queue: Any) -> None:
 
 
 def run_pool(
-    fn: Callable[..., Any], calls: Sequence[tuple], jobs: int
+    fn: Callable[..., Any], calls: Sequence[tuple], jobs: int, pin: bool = False
 ) -> Iterator[tuple[int, Any]]:
-    """Run fn(*calls[i]) in `jobs` pinned worker processes -> (i, result) as each finishes.
-    An exception in a call is raised here, after the running calls finish."""
+    """Run fn(*calls[i]) in `jobs` worker processes -> (i, result) as each finishes; with
+    `pin` each worker runs only on its own group of cores (`core_groups`). An exception in a
+    call is raised here, after the running calls finish."""
     ctx = multiprocessing.get_context("spawn")
     queue = ctx.Queue()
-    for group in core_groups(jobs):
+    for group in core_groups(jobs) if pin else [() for _ in range(jobs)]:
         queue.put(group)
     with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_pin, initargs=(queue,)) as pool:
         pending = {pool.submit(fn, *args): i for i, args in enumerate(calls)}
