@@ -81,9 +81,6 @@ def cell_seconds(cell: Cell, table: CostTable) -> float:
     from mjx_skills.envs.registry import ENVS
 
     length = ENVS[cell.task].default_episode_length
-    episode = dict(cell.train)
-    if episode.get("episode_length"):
-        length = episode["episode_length"]
     if cell.method != "ddpg_her_sl":
         return table.compile_s(cell.method) + cell.epochs * table.epoch_s(
             cell.method, cell.seeds, length
@@ -116,7 +113,8 @@ def estimate(
     on `cores` cores (default: the ones this process may use)."""
     from mjx_skills.workers import usable_cores
 
-    rows = rows if rows is not None else load_rows()
+    rows = [r for r in rows if "variant" in r] if rows is not None else load_rows()
+    jobs = max(1, min(jobs, len(exp.cells())))  # as the sweep: no more workers than cells
     want = max(1, (cores or usable_cores()) // max(jobs, 1))
     # The measured core count nearest to what each cell gets here.
     cores = min({r["cores"] for r in rows}, key=lambda c: (abs(c - want), c))

@@ -169,7 +169,7 @@ def run_cells_local(
         state = "running" if i in todo else "done"
         print(f"[cell {i + 1}/{len(cells)}] {cell.name}: {state}", file=sys.stderr)
     jobs = min(jobs, len(todo))
-    if jobs <= 1:
+    if jobs <= 1 or cells[0].samples:  # library cells share one work dir: one at a time
         return [run_cell(c, str(d), progress) for c, d in zip(cells, dirs, strict=True)]
     from mjx_skills.workers import run_pool
 
@@ -180,7 +180,11 @@ def run_cells_local(
             bar.set_postfix_str(cells[todo[k]].name)
             bar.update(1)
     # Finished now, each in its own directory: read back in the experiment's order.
-    return [run_cell(c, str(d), False) for c, d in zip(cells, dirs, strict=True)]
+    run_dirs = [cell_run_dir(d) for d in dirs]
+    unfinished = [c.name for c, r in zip(cells, run_dirs, strict=True) if not finished(r, c)]
+    if unfinished:  # a worker interrupted (Ctrl-C): it saved; starting again resumes
+        raise SystemExit(f"error: cells not finished: {', '.join(unfinished)}; run again to resume")
+    return [str(r) for r in run_dirs]
 
 
 def run_sweep(
@@ -224,8 +228,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--ray", metavar="ADDRESS", help="run cells as Ray tasks: 'local' or HOST:PORT")
     p.add_argument("--ray-address", dest="ray", help=argparse.SUPPRESS)
     p.add_argument("--jobs", type=int, default=None,
-                   help="cells at once, each in a process pinned to its cores "
-                   "(default: one per usable core)")  # fmt: skip
+                   help="cells at once, each in its own worker process "
+                   "(default: one per usable core; library experiments: 1)")  # fmt: skip
     p.add_argument("--pin", action="store_true",
                    help="pin each of the --jobs workers to its own cores (default: unpinned)")  # fmt: skip
     p.add_argument("--estimate", action="store_true",

@@ -61,14 +61,19 @@ def run_pool(
 ) -> Iterator[tuple[int, Any]]:
     """Run fn(*calls[i]) in `jobs` worker processes -> (i, result) as each finishes; with
     `pin` each worker runs only on its own group of cores (`core_groups`). An exception in a
-    call is raised here, after the running calls finish."""
+    call (or Ctrl-C) cancels the calls not yet started and is raised here once the running
+    ones have finished."""
     ctx = multiprocessing.get_context("spawn")
     queue = ctx.Queue()
     for group in core_groups(jobs) if pin else [() for _ in range(jobs)]:
         queue.put(group)
     with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_pin, initargs=(queue,)) as pool:
         pending = {pool.submit(fn, *args): i for i, args in enumerate(calls)}
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                yield pending.pop(future), future.result()
+        try:
+            while pending:
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield pending.pop(future), future.result()
+        except BaseException:  # a failed call or Ctrl-C: start nothing more
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise

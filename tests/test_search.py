@@ -368,7 +368,9 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
     assert found.skill[1, 2] == alone.skill[0]
     np.testing.assert_allclose(found.goal[1, 2], alone.goal[0], atol=1e-6)
     one_round = len(lib.calls)
-    assert one_round >= cfg.height
+    # Pooled over the seeds: a round searches a chunk of a quarter of the 2 x 4 envs, 2 rows
+    # per tree node (searched seed by seed it would be 1).
+    assert sorted(lib.calls) == [2 * cfg.branching**level for level in range(1, cfg.height + 1)]
     seeds = jax.random.split(jax.random.PRNGKey(0), 2)
     for eps in (0.0, 1.0):
         lib = CountingLibrary()
@@ -385,3 +387,4 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
         # eps 0: never; eps 1: all 8 envs of the 2 seeds decide at the first step only
         # (skills run w = 10 steps), pooled: 4 rounds of 2 envs (a quarter of 8).
         assert len(lib.calls) == (0 if eps == 0.0 else 4 * one_round), eps
+        assert set(lib.calls) <= {2 * cfg.branching**level for level in range(1, cfg.height + 1)}
