@@ -82,6 +82,15 @@ def sweeps() -> list[str]:
         out.append(f"| {name} | {par['cells']} | {par['serial_s']:.0f} s | {par['parallel_s']:.0f} s "
                    f"({par['speedup']:.2f}x) | {pinned} | "
                    f"{'bitwise identical' if par['identical'] else 'DIFFERENT'} |")  # fmt: skip
+    epochs = [r for r in rows("epoch_cost") if "variant" in r and r["seeds"] == 5]
+    two = {r["variant"]: r["epoch_s"] for r in epochs if r["cores"] == 2}
+    slow = sorted(r["epoch_s"] / two[r["variant"]] for r in epochs
+                  if r["cores"] == 1 and r["variant"] in two)  # fmt: skip
+    out += ["", f"Why not 2x: on one core an epoch takes {slow[0]:.2f}-{slow[-1]:.2f}x its time on "
+            f"two (5 seeds, the `--cores 1` rows), so one cell already keeps both cores partly "
+            f"busy, and two balanced cells at once finish at most 2 / {slow[0]:.2f} = "
+            f"{2 / slow[0]:.2f}x sooner than one after the other; with unequal cells the longer "
+            f"one sets the wall time."]  # fmt: skip
     from mjx_skills import cost
     from mjx_skills.experiments import load_experiment
 
