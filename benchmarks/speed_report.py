@@ -24,6 +24,7 @@ VARIANTS = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS",
             "sl_eps1": "DDPG+HER+SL, eps = 1", "sl_eps0": "DDPG+HER+SL, eps = 0.001",
             "sl_eps1_whole": "... eps = 1, whole batch searched", "oracle": "oracle explorer"}  # fmt: skip
 THESIS_EXPERIMENTS = ("fig6_3", "fig6_4", "fig6_5")
+METHODS = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS", "ddpg_her_sl": "DDPG+HER+SL"}
 
 
 def rows(name: str) -> list[dict]:
@@ -135,9 +136,8 @@ def learning(name: str) -> list[str]:
     (the search's random draws are now per env, so the bits differ)."""
     curves = ROOT / "experiments" / "results"
     rows = [json.loads(line) for line in (curves / f"{name}.jsonl").open()]
-    names = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS", "ddpg_her_sl": "DDPG+HER+SL"}
     parts = []
-    for method, label in names.items():
+    for method, label in METHODS.items():
         last5, hit = curve_summary([r for r in rows if r["method"] == method])
         parts.append(f"{label} {last5:.2f}" + (f" (0.90 first at epoch {hit})" if hit else ""))
     old = [json.loads(line) for line in (curves / "pick_move_ddpg_her_sl.jsonl").open()]
@@ -161,8 +161,7 @@ def first_epochs(name: str) -> list[str]:
                 if r["task"] == "pick_move" and r["epoch"] == 1 and r["seed"] == 0}  # fmt: skip
 
     before, after = first(curves / "fig6_3.jsonl"), first(curves / f"{name}.jsonl")
-    names = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS", "ddpg_her_sl": "DDPG+HER+SL"}
-    cells = "; ".join(f"{label} {before[m]:.0f} -> {after[m]:.0f} s" for m, label in names.items()
+    cells = "; ".join(f"{label} {before[m]:.0f} -> {after[m]:.0f} s" for m, label in METHODS.items()
                       if m in before and m in after)  # fmt: skip
     return [f"Seconds to the end of epoch 1 (tracing, compiling, the first epoch; `wall_s` of "
             f"epoch 1): {cells} (before: `fig6_3.jsonl`, 3 seeds, one cell at a time; after: "
@@ -199,24 +198,22 @@ def make_train() -> list[str]:
         return []
     run = rows("make_train")[-1]
     curve = [json.loads(line) for line in (ROOT / run["curve"]).open()]
-    success = [r["eval_success"] for r in sorted(curve, key=lambda r: r["epoch"])]
+    last5, hit = curve_summary(curve)
     wall = {r["epoch"]: r["wall_s"] for r in curve}
-    rolling = [statistics.fmean(success[max(0, i - 4) : i + 1]) for i in range(len(success))]
-    hit = next((i + 1 for i, m in enumerate(rolling) if i >= 4 and m >= 0.9), None)
     if hit is None:
         return [f"**`make train TASK=pick_move`**: the 5-epoch rolling mean never reached 0.90 "
-                f"in {len(success)} epochs (`{run['curve']}`)."]  # fmt: skip
+                f"in {len(wall)} epochs (`{run['curve']}`)."]  # fmt: skip
     start = run["wall_s"] - wall[max(wall)]  # process start, library load, first trace
     return [f"**`make train TASK=pick_move`** (one seed, `{run['curve']}`): the 5-epoch rolling "
             f"mean of eval success first reaches 0.90 at epoch {hit}, **{(start + wall[hit]) / 60:.1f} "
             f"min** after the command started (compile included); the 100 epochs took "
-            f"{run['wall_s'] / 60:.1f} min, last 5 epochs {statistics.fmean(success[-5:]):.2f}."]  # fmt: skip
+            f"{run['wall_s'] / 60:.1f} min, last 5 epochs {last5:.2f}."]  # fmt: skip
 
 
 def section() -> str:
+    timed = make_train()
     parts = [BEGIN, *epoch_cost(), "", *sweeps(), "", *search(), ""]
-    parts += [*make_train(), END] if make_train() else [END]
-    return "\n".join(parts)
+    return "\n".join([*parts, *timed, END] if timed else [*parts, END])
 
 
 def main() -> None:

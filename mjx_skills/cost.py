@@ -77,25 +77,23 @@ class CostTable:
 
 def cell_seconds(cell: Cell, table: CostTable) -> float:
     """Expected wall seconds of one training cell."""
+    import jax.numpy as jnp
+
     from mjx_skills.config import SearchConfig
     from mjx_skills.envs.registry import ENVS
+    from mjx_skills.sl import epsilon
 
     length = ENVS[cell.task].default_episode_length
-    if cell.method != "ddpg_her_sl":
-        return table.compile_s(cell.method) + cell.epochs * table.epoch_s(
-            cell.method, cell.seeds, length
-        )
     search = dataclasses.replace(SearchConfig(), **dict(dict(cell.options).get("search", ())))
-    if search.explorer == "scripted":
-        return table.compile_s("oracle") + cell.epochs * table.epoch_s("oracle", cell.seeds, length)
-    full = table.epoch_s("sl_eps1", cell.seeds, length)
-    least = table.epoch_s("sl_eps0", cell.seeds, length)
-    total = 0.0
-    for epoch in range(cell.epochs):
-        frac = min(epoch / search.eps_decay_epochs, 1.0)
-        eps = search.eps_start + frac * (search.eps_end - search.eps_start)
-        total += least + (full - least) * eps
-    return table.compile_s("sl_eps1") + total
+    if cell.method == "ddpg_her_sl" and search.explorer == "search":
+        # Between the eps = 0.001 and eps = 1 epochs in proportion to eps (the search runs
+        # only where it is used), over the method's own eps schedule.
+        full = table.epoch_s("sl_eps1", cell.seeds, length)
+        least = table.epoch_s("sl_eps0", cell.seeds, length)
+        eps = float(jnp.sum(epsilon(search, jnp.arange(cell.epochs))))
+        return table.compile_s("sl_eps1") + cell.epochs * least + (full - least) * eps
+    variant = "oracle" if cell.method == "ddpg_her_sl" else cell.method
+    return table.compile_s(variant) + cell.epochs * table.epoch_s(variant, cell.seeds, length)
 
 
 def makespan(seconds: list[float], jobs: int) -> float:
@@ -115,7 +113,7 @@ def estimate(
 
     rows = [r for r in rows if "variant" in r] if rows is not None else load_rows()
     jobs = max(1, min(jobs, len(exp.cells())))  # as the sweep: no more workers than cells
-    want = max(1, (cores or usable_cores()) // max(jobs, 1))
+    want = max(1, (cores or usable_cores()) // jobs)
     # The measured core count nearest to what each cell gets here.
     cores = min({r["cores"] for r in rows}, key=lambda c: (abs(c - want), c))
     table = CostTable(tuple(rows), cores)
