@@ -4,6 +4,7 @@ python -m mjx_skills.train ddpg_her --task transit --epochs 20 --seeds 2
 python -m mjx_skills.train --task transit              # the method defaults to ddpg_her
 python -m mjx_skills.train --method ddpg_her ...       # earlier form, still accepted
 python -m mjx_skills.train --resume RUN_DIR            # the run's config.json decides
+python -m mjx_skills.train ddpg_her_sl --preset thesis # the thesis's formulation (methods.PRESETS)
 """
 
 from __future__ import annotations
@@ -41,15 +42,16 @@ def _flag_value(argv: list[str], flag: str) -> tuple[str | None, list[str]]:
     return None, argv
 
 
-def method_args_type(spec: methods.Method) -> type:
+def method_args_type(spec: methods.Method, preset: str = "default") -> type:
     """The CLI dataclass of one method: train options without prefix, --env.*, and one
-    prefix per option group of the method (e.g. --ddpg.*)."""
+    prefix per option group of the method (e.g. --ddpg.*), its defaults those of `preset`."""
+    groups = methods.preset_options(spec.name, preset)
     fields = [
         ("train", Annotated[TrainConfig, tyro.conf.OmitArgPrefixes],
          dataclasses.field(default=TrainConfig())),
         ("env", EnvConfig, dataclasses.field(default=EnvConfig())),
         *[(name, type(default), dataclasses.field(default=default))
-          for name, default in spec.options.items()],
+          for name, default in groups.items()],
     ]  # fmt: skip
     cls = dataclasses.make_dataclass(f"{spec.name}_args", fields, frozen=True)
     cls.__doc__ = spec.description
@@ -62,6 +64,7 @@ def parse(argv: list[str]) -> RunArgs:
     resume, rest = _flag_value(argv, "--resume")
     if resume is not None:
         return RunArgs(resume=resume)
+    preset, argv = _flag_value(argv, "--preset")
     name, argv = _flag_value(argv, "--method")
     if name is None and argv and not argv[0].startswith("-"):
         name, argv = argv[0], argv[1:]
@@ -69,9 +72,9 @@ def parse(argv: list[str]) -> RunArgs:
         name = DEFAULT_METHOD  # (plain --help lists every method)
     try:
         specs = {name: methods.get(name)} if name else methods.METHODS
+        types = {n: method_args_type(spec, preset or "default") for n, spec in specs.items()}
     except (ValueError, NotImplementedError) as err:
         raise SystemExit(f"error: {err}") from None
-    types = {n: method_args_type(spec) for n, spec in specs.items()}
     parsed = tyro.extras.subcommand_cli_from_dict(
         types, args=[*([name] if name else []), *argv], description=__doc__
     )

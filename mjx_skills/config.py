@@ -221,16 +221,16 @@ class LibraryConfig:
     """Hidden widths of the coarse dynamics model (thesis: 3 x 1000)."""
     model_lr: float = 1e-3
     """Adam learning rate of the coarse model (thesis: 1e-5, for 3 x 1000 units)."""
-    anchor: Literal["start", "goal"] = "start"
+    anchor: Literal["start", "goal"] = "goal"
     """What the coarse model's prediction and a recalled memory are measured from. 'start'
     (the thesis): the model predicts the change from the start state, memory returns the
     stored run's terminal state as it was. 'goal': the positions a skill moves (grip and
     cube) are predicted, and recalled, relative to the skill's goal - a successful run ends
     within the success threshold of it wherever the goal lies - and the neighbour's offset
     from its own goal is carried over to the query's. Measured at 10k runs per skill
-    (README, Table 5.1): memory 4.36 / 2.11 / 5.46 cm -> 1.30 / 1.30 / 1.20, model
-    2.28 / 0.86 / 3.11 -> 0.88 / 0.82 / 0.85 (transit / grasp / transfer). The committed
-    library, and so the default, is still 'start'."""
+    (docs/results.md, Table 5.1): memory 4.36 / 2.11 / 5.46 cm -> 1.30 / 1.30 / 1.20, model
+    2.28 / 0.86 / 3.11 -> 0.88 / 0.82 / 0.85 (transit / grasp / transfer). Default 'goal'
+    (the committed library); the thesis preset's library is 'start'."""
     classifier_hidden: tuple[int, ...] = (50, 10)
     """Hidden widths of the success classifier (thesis: 50, 10)."""
     classifier_lr: float = 1e-3
@@ -271,7 +271,8 @@ class SearchConfig:
     """Skills the search may use: SL1 = transit, grasp, transfer; SL2 = grasp, transfer;
     SL3 = transit, transfer (thesis Fig. 6.4)."""
     library_dir: str = "experiments/skill_library"
-    """Where the built library is (`make skills` writes it there)."""
+    """Where the built library is (`make skills` writes it there; the thesis preset's,
+    anchored at the start state, is experiments/skill_library_thesis)."""
     explorer: Literal["search", "scripted"] = "search"
     """What drives the exploring steps: the look-ahead search over the library, or the
     task's scripted controller (an oracle: the upper bound the search is compared with)."""
@@ -300,13 +301,14 @@ class SearchConfig:
     """... and this far above its centre (m): where the grasp skill starts."""
     transfer_goal_noise: float = 0.03
     """Transfer goals are sampled within +- this (m) of the task goal."""
-    waypoint_share: float = 0.0
+    waypoint_share: float = 0.3
     """Share of transfer goals sampled anywhere in the transfer skill's goal box instead of
-    near the task goal: waypoints, so that a path may go round an obstacle (0: the thesis)."""
-    stall_memory: int = 0
+    near the task goal: waypoints, so that a path may go round an obstacle (0: the thesis;
+    default 0.3 with the stall memory, chosen by measurement: docs/results.md)."""
+    stall_memory: int = 8
     """Obstacles each env remembers within an episode where a transit or transfer stalled;
-    the search prunes moving edges whose path passes near one (0: off, the thesis). See
-    `mjx_skills/stalls.py` and README, "Fig. 6.5"."""
+    the search prunes moving edges whose path passes near one (0: off, the thesis; default
+    8, chosen by measurement: docs/results.md). See `mjx_skills/stalls.py`."""
     stall_step: float = 0.003
     """A running transit/transfer whose gripper moved less than this (m) in one step, short
     of its goal, has stalled: it ends, and the obstacle is remembered ..."""
@@ -354,7 +356,8 @@ class PASConfig:
     library: Literal["SL1", "SL2", "SL3"] = "SL1"
     """Skills the meta-controller chooses from (as for DDPG+HER+SL)."""
     library_dir: str = "experiments/skill_library"
-    """Where the built library is (`make skills` writes it there)."""
+    """Where the built library is (`make skills` writes it there; the thesis preset's,
+    anchored at the start state, is experiments/skill_library_thesis)."""
     hindsight: bool = False
     """Relabel meta transitions with the achieved goal at the end of a later meta step of
     the same episode (MPAS, approach 1); off: the task's own goal only (PAS, baseline 2)."""

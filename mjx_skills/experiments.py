@@ -2,7 +2,8 @@
 
 A file holds a description, `tasks`, `methods`, optional `libraries` (SL1 / SL2 / SL3, for
 the library methods), `seeds`, `epochs`, optional `[train]` overrides (TrainConfig fields)
-and `[options.METHOD.GROUP]` overrides (e.g. `[options.mpas.pas] critic = "joint"`):
+and `[options.METHOD.GROUP]` overrides (e.g. `[options.mpas.pas] critic = "joint"`), applied
+over the optional `preset` (`mjx_skills.methods.PRESETS`, e.g. `preset = "thesis"`):
 
     description = "Fig. 6.5: container with a wall"
     tasks = ["container_wall"]
@@ -45,6 +46,8 @@ class Cell:
     """Option-group overrides: (group, ((field, value), ...))."""
     samples: int | None = None
     """A library cell: build a skill library from this many runs per skill (Table 5.1)."""
+    preset: str = "default"
+    """The method's option preset (`methods.PRESETS`), under `options`."""
 
     @property
     def name(self) -> str:
@@ -52,7 +55,8 @@ class Cell:
             fields = dict(self.options).get("library", ())
             return f"library-n{self.samples}" + "".join(f"-{k}-{v}" for k, v in fields)
         lib = f"-{self.library}" if self.library else ""
-        return f"{self.task}-{self.method}{lib}-s{self.seeds}-e{self.epochs}"
+        preset = "" if self.preset == "default" else f"-{self.preset}"
+        return f"{self.task}-{self.method}{lib}{preset}-s{self.seeds}-e{self.epochs}"
 
     def run_args(self, out: str, progress: bool = True):
         from mjx_skills import methods
@@ -63,7 +67,8 @@ class Cell:
         groups = {group: dict(fields) for group, fields in self.options}
         if self.library:
             groups.setdefault(LIBRARY_GROUP[self.method], {})["library"] = self.library
-        options = {g: dataclasses.replace(spec.options[g], **f) for g, f in groups.items()}
+        base = methods.preset_options(self.method, self.preset)
+        options = {g: dataclasses.replace(base[g], **groups.get(g, {})) for g in spec.options}
         train = TrainConfig(task=self.task, epochs=self.epochs, seeds=self.seeds, out=out,
                             progress=progress, **dict(self.train))  # fmt: skip
         return RunArgs(train=train, method=self.method, options=options)
@@ -85,6 +90,8 @@ class Experiment:
     options: dict[str, dict[str, dict[str, Any]]] = dataclasses.field(default_factory=dict)
     library: dict[str, Any] = dataclasses.field(default_factory=dict)
     """A library experiment's LibraryConfig overrides (besides `samples`)."""
+    preset: str = "default"
+    """Option preset of every method (`methods.PRESETS`); `options` apply over it."""
 
     def __post_init__(self) -> None:
         from mjx_skills import methods
@@ -111,7 +118,7 @@ class Experiment:
         for task in self.tasks:
             check_name(task)
         for method in self.methods:
-            methods.get(method)
+            methods.preset_options(method, self.preset)  # unknown method or preset fails here
         for lib in self.libraries:
             library_skills(lib)
         if self.seeds < 1 or self.epochs < 1:
@@ -126,7 +133,8 @@ class Experiment:
                 if group not in spec.options:
                     raise ValueError(f"experiment {self.name}: {method} has no option group "
                                      f"{group!r}; valid: {sorted(spec.options)}")  # fmt: skip
-                dataclasses.replace(spec.options[group], **fields)  # checks the values
+                dataclasses.replace(methods.preset_options(method, self.preset)[group],
+                                    **fields)  # checks the values  # fmt: skip
 
     def with_budget(self, seeds: int | None = None, epochs: int | None = None) -> Experiment:
         return dataclasses.replace(self, seeds=seeds or self.seeds, epochs=epochs or self.epochs)
@@ -143,7 +151,7 @@ class Experiment:
                 opts = tuple((g, tuple(sorted(f.items())))
                              for g, f in sorted(self.options.get(method, {}).items()))  # fmt: skip
                 out.append(Cell(task, method, lib, self.seeds, self.epochs,
-                                tuple(sorted(self.train.items())), opts))  # fmt: skip
+                                tuple(sorted(self.train.items())), opts, preset=self.preset))  # fmt: skip
         return out
 
 

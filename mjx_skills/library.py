@@ -13,8 +13,11 @@ a half-written library and is refused).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
+import logging
 import shutil
+import subprocess
 import time
 from pathlib import Path
 from typing import Any
@@ -27,7 +30,7 @@ from flax import struct
 
 from mjx_skills import __version__, ddpg
 from mjx_skills.config import DDPGConfig, LibraryConfig, from_dict
-from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, BaxterEnv
+from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, XML_DIR, BaxterEnv
 from mjx_skills.envs.registry import SKILLS, make
 from mjx_skills.grouped import apply_per_row, select
 from mjx_skills.nets import CoarseDynamics, SuccessClassifier
@@ -43,6 +46,7 @@ PARAM_DIM = 3
 FORMAT = 1
 """Version of the on-disk layout; a library of another format is refused."""
 DEFAULT_DIR = Path("experiments") / "skill_library"
+log = logging.getLogger(__name__)
 
 
 def library_skills(name: str) -> tuple[str, ...]:
@@ -244,12 +248,53 @@ def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any]) -> Path:
     tmp = directory.with_name(f".{directory.name}.partial-{int(time.time())}")
     with ocp.StandardCheckpointer() as ckpt:
         ckpt.save(tmp / "arrays", lib)
-    full = {**manifest, "format": FORMAT, "version": __version__, "skills": list(lib.names),
+    full = {**manifest, "format": FORMAT, **provenance(), "skills": list(lib.names),
             "ddpg": dataclasses.asdict(lib.ddpg_config),
             "library": dataclasses.asdict(lib.config), "complete": True}  # fmt: skip
     (tmp / "manifest.json").write_text(json.dumps(full, indent=2))
     tmp.rename(directory)
     return directory
+
+
+def scenes_digest() -> str:
+    """SHA-256 (first 16 hex digits) of the MJCF files in `xml/`: the skills were trained
+    and their models fitted in these scenes, so a library built before a scene changed
+    describes other physics."""
+    digest = hashlib.sha256()
+    for path in sorted(XML_DIR.glob("*.xml")):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _git_commit() -> str:
+    """The checkout's commit ('+dirty' when tracked files differ), or 'unknown'."""
+    root = XML_DIR.parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
+                              text=True, check=True, timeout=10).stdout.strip()  # fmt: skip
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               cwd=root, capture_output=True, text=True, timeout=10).stdout  # fmt: skip
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return head + ("+dirty" if dirty.strip() else "")
+
+
+def provenance() -> dict[str, str]:
+    """What built a library: package version, git commit and the scenes' digest."""
+    return {"version": __version__, "commit": _git_commit(), "scenes": scenes_digest()}
+
+
+def stale_reasons(manifest: dict[str, Any]) -> list[str]:
+    """Why a library may not match this code: another package version, or other scenes
+    (or no record of either: built before they were recorded). Empty when it matches."""
+    reasons = []
+    if manifest.get("version") != __version__:
+        reasons.append(f"built by version {manifest.get('version')}, this is {__version__}")
+    if manifest.get("scenes") is None:
+        reasons.append("built before the scenes' digest was recorded")
+    elif manifest["scenes"] != scenes_digest():
+        reasons.append("built in other scenes (xml/ has changed since)")
+    return reasons
 
 
 def read_manifest(directory: Path) -> dict[str, Any]:
@@ -268,6 +313,11 @@ def read_manifest(directory: Path) -> dict[str, Any]:
             f"{directory} holds a library of format {manifest.get('format')} (version "
             f"{manifest.get('version')}); this code reads format {FORMAT}: rebuild it"
         )
+    reasons = stale_reasons(manifest)
+    if reasons:
+        log.warning("skill library %s may be stale: %s; rebuild it with `python -m "
+                    "mjx_skills.skills --out DIR` (and the same options, see its manifest)",
+                    directory, "; ".join(reasons))  # fmt: skip
     return manifest
 
 

@@ -83,6 +83,35 @@ METHODS: dict[str, Method] = {
 }
 
 
+THESIS_LIBRARY = "experiments/skill_library_thesis"
+"""The thesis preset's library: models and memories anchored at the start state
+(`python -m mjx_skills.skills --anchor start --out experiments/skill_library_thesis`)."""
+
+PRESETS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
+    "default": {},
+    "thesis": {
+        "ddpg_her_sl": {"search": {"stall_memory": 0, "waypoint_share": 0.0,
+                                   "library_dir": THESIS_LIBRARY}},
+        **{name: {"pas": {"critic": "joint", "terminal_at_goal": False,
+                          "library_dir": THESIS_LIBRARY}} for name in ("pas", "mpas")},
+    },
+}  # fmt: skip
+"""Named option sets by method and group, applied over the defaults (explicit flags win).
+'thesis': each method as the thesis formulates it, where our defaults depart from it by
+measurement (the departures and their measurements: docs/results.md, "Presets"). DDPG+HER
+has no departure of formulation (its hyperparameters: `DDPGConfig`)."""
+
+
+def preset_options(method: str, preset: str = "default") -> dict[str, Any]:
+    """The option groups of `method` with preset `preset` applied to their defaults."""
+    spec = get(method)
+    if preset not in PRESETS:
+        raise ValueError(f"unknown preset {preset!r}; valid: {', '.join(PRESETS)}")
+    changes = PRESETS[preset].get(method, {})
+    return {group: dataclasses.replace(default, **changes.get(group, {}))
+            for group, default in spec.options.items()}  # fmt: skip
+
+
 def get(name: str) -> Method:
     """The registered method `name`; a clear error naming the valid ones otherwise."""
     if name in METHODS:

@@ -48,6 +48,10 @@ class SkillsArgs:
     """Only write Table 5.1 (experiments/results/table_5_1.csv) from the library at --out."""
     progress: bool = True
     """Draw progress bars."""
+    work: str = ""
+    """Directory of the skills' training runs (default: .OUT.work beside the library).
+    Libraries built with the same one share their trained skills, e.g. the thesis preset's
+    `--anchor start` library beside the default one."""
 
 
 def _epochs(name: str, config: LibraryConfig) -> int:
@@ -289,7 +293,7 @@ def main(argv: list[str] | None = None) -> None:
         if args.table:
             print(f"wrote {write_table(Path(args.out))}")
             return
-        out = build(args)
+        out = build(args, work=Path(args.work).resolve() if args.work else None)
         print(json.dumps(library.read_manifest(out)["models"], indent=1))
         print(f"library written to {out}")
     except (ValueError, FileExistsError, FileNotFoundError) as err:
