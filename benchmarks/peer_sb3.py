@@ -41,7 +41,7 @@ import mjx_skills.envs.gym  # noqa: F401  (registers MjxSkills/*-v0)
 from mjx_skills import compile_cache
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
 from mjx_skills.ddpg_her import make_ddpg_her
-from mjx_skills.envs import make
+from mjx_skills.envs import ENVS, make
 from mjx_skills.envs.gym import gym_id
 from mjx_skills.train import init_carry, make_evaluate, make_train_cycles
 
@@ -66,7 +66,7 @@ def ours_matched_throughput(task: str, envs: int, seed: int = 0, min_steps: int 
     """Training env steps per second at one update per env step: each cycle collects `envs`
     episodes, then runs as many updates as it took env steps. Networks without LayerNorm,
     as SB3's."""
-    T = gymnasium.spec(gym_id(task)).max_episode_steps
+    T = ENVS[task].default_episode_length
     cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False, seed=seed,
                       envs=envs, cycles=1, updates_per_cycle=envs * T)  # fmt: skip
     _, _, carry, cycles_fn = _compiled_cycles(cfg, DDPGConfig(layer_norm=False))
@@ -155,7 +155,7 @@ def run_sb3(task: str, algo: str, total_steps: int, seed: int = 0) -> dict:
 
     torch.set_num_threads(os.cpu_count() or 1)  # 2 threads: 110 env steps/s, 1 thread: 101
     env = gymnasium.make(gym_id(task))
-    episode = env.spec.max_episode_steps
+    episode = env.unwrapped.task.episode_length
     common = dict(
         replay_buffer_class=HerReplayBuffer,
         replay_buffer_kwargs=dict(n_sampled_goal=4, goal_selection_strategy="future"),
@@ -266,7 +266,7 @@ def main() -> None:
     compile_cache.enable()
     results, summary = {}, None
     for task in args.tasks:
-        episode = gymnasium.spec(gym_id(task)).max_episode_steps
+        episode = ENVS[task].default_episode_length
         total = args.epochs * EPISODES_PER_EPOCH * episode
         sb3_total = (args.sb3_epochs or args.epochs) * EPISODES_PER_EPOCH * episode
         for seed in range(args.seeds):

@@ -8,6 +8,7 @@ package (task and method names are checked where envs and methods are made).
 from __future__ import annotations
 
 import dataclasses
+import math
 import typing
 from typing import Any, Literal
 
@@ -15,6 +16,18 @@ from typing import Any, Literal
 def _check(cond: bool, field: str, why: str) -> None:
     if not cond:
         raise ValueError(f"invalid config value for '{field}': {why}")
+
+
+def _check_numbers(config: Any) -> None:
+    """Every number of every field of `config` (each element of a tuple field too) is finite
+    and >= 0: no field of any config class takes NaN, an infinity or a negative value."""
+    for field in dataclasses.fields(config):
+        value = getattr(config, field.name)
+        for v in value if isinstance(value, tuple) else (value,):
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                continue
+            _check(math.isfinite(v), field.name, f"must be finite, got {v}")
+            _check(v >= 0, field.name, f"must be >= 0, got {v}")
 
 
 def from_dict(cls: type, raw: dict[str, Any]) -> Any:
@@ -76,6 +89,7 @@ class DDPGConfig:
     """Share of sampled transitions whose goal is relabelled (future k = 4 -> 0.8)."""
 
     def __post_init__(self) -> None:
+        _check_numbers(self)
         _check(
             len(self.hidden) > 0 and all(h > 0 for h in self.hidden),
             "hidden",
@@ -89,6 +103,7 @@ class DDPGConfig:
         _check(0.0 <= self.random_eps <= 1.0, "random_eps", "must lie in [0, 1]")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         _check(self.norm_clip > 0, "norm_clip", "must be > 0")
+        _check(self.norm_eps > 0, "norm_eps", "must be > 0 (the floor of a std)")
         _check(
             self.her_strategy in ("future", "final", "episode", "none"),
             "her_strategy",
@@ -139,6 +154,7 @@ class EnvConfig:
     with 0.5 (the HER paper's trick for pick-and-place); evaluation never does."""
 
     def __post_init__(self) -> None:
+        _check_numbers(self)
         _check(self.physics in PHYSICS, "physics", f"must be one of {', '.join(PHYSICS)}")
         _check(self.timestep > 0, "timestep", "must be > 0")
         for name in ("n_substeps", "solver_iterations", "ls_iterations", "settle_substeps"):
@@ -184,6 +200,7 @@ class TrainConfig:
     """Draw a progress bar."""
 
     def __post_init__(self) -> None:
+        _check_numbers(self)
         _check(bool(self.task), "task", "must name an env")
         for name in ("epochs", "seeds", "envs", "cycles", "eval_episodes", "checkpoint_every"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")
@@ -248,6 +265,7 @@ class LibraryConfig:
     """Seed of skill training, collection and fits."""
 
     def __post_init__(self) -> None:
+        _check_numbers(self)
         for name in ("transit_epochs", "grasp_epochs", "transfer_epochs", "skill_eval_episodes",
                      "collect_envs", "fit_batch", "fit_epochs", "patience"):  # fmt: skip
             _check(getattr(self, name) >= 1, name, "must be >= 1")
@@ -332,6 +350,7 @@ class SearchConfig:
     """... over this many epochs."""
 
     def __post_init__(self) -> None:
+        _check_numbers(self)
         for name in ("branching", "height", "skill_steps", "eps_decay_epochs"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")
         _check(0.0 <= self.prune_below < 1.0, "prune_below", "must lie in [0, 1)")
@@ -384,6 +403,7 @@ class PASConfig:
     count) instead of the trainer's 100."""
 
     def __post_init__(self) -> None:
+        _check_numbers(self)
         _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")
         _check(self.critic in ("joint", "per_skill"), "critic", "valid: joint, per_skill")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")

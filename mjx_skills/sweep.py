@@ -18,9 +18,11 @@ With `--ray ADDRESS` or `--ray local` each cell is a Ray task (the `ray` extra).
 `--estimate` prints the expected wall time from the measured epoch costs
 (`mjx_skills.cost`) without training.
 
-Resumable: a cell lives in SWEEP_DIR/CELL/ (default runs/sweeps/NAME/); a finished cell is
-skipped, an interrupted one resumes from its checkpoint, so starting a sweep again loses no
-finished cell. When every cell is done the results are aggregated into
+Resumable: a cell runs in SWEEP_DIR/CELL/ (default runs/sweeps/NAME/) and, once finished, its
+metrics are kept with its definition in experiments/results/cells/CELL/ (`mjx_skills.cells`,
+committed): a stored cell of the same definition is taken instead of trained, whichever
+experiment asks for it, and an interrupted one resumes from its checkpoint. A stored cell
+or a run made by another definition of the cell is refused with the fields that differ. When every cell is done the results are aggregated into
 experiments/results/NAME.csv (mean and std of eval success over seeds per epoch) and NAME.jsonl
 (every seed's metrics); existing results are not overwritten without --overwrite.
 """
@@ -40,6 +42,7 @@ from tqdm.auto import tqdm
 from mjx_skills.experiments import Cell, Experiment, adhoc, load_experiment, names
 
 RESULTS = Path("experiments") / "results"
+STORE = RESULTS / "cells"
 CSV_FIELDS = ("experiment", "task", "method", "library", "epoch", "episodes", "env_steps",
               "eval_success_mean", "eval_success_std", "seeds", "wall_s")  # fmt: skip
 
@@ -66,20 +69,45 @@ def finished(run_dir: Path | None, cell: Cell) -> bool:
     return len({r["seed"] for r in last}) == cell.seeds
 
 
-def run_cell(cell: Cell, cell_dir: str, progress: bool = True) -> str:
-    """Train (or resume, or skip) one cell -> its run directory. Runs in this process or in a
-    Ray worker: imports JAX only here."""
-    from mjx_skills import compile_cache
+def run_cell(cell: Cell, cell_dir: str, progress: bool = True, store: str = str(STORE)) -> str:
+    """Train (or resume, or take from the store) one cell -> the directory of its results
+    (a stored cell, `mjx_skills.cells`; a library cell: the library). Runs in this process
+    or in a worker: imports JAX only here. A run in `cell_dir` made by another definition
+    is refused with the fields that differ."""
+    from mjx_skills import cells, compile_cache
     from mjx_skills.runner import RunArgs, train_run
 
     compile_cache.enable()
     run_dir = cell_run_dir(Path(cell_dir))
-    if finished(run_dir, cell):
-        return str(run_dir)
     if cell.samples:
+        if finished(run_dir, cell):
+            return str(run_dir)
         return str(build_library(cell, Path(cell_dir), progress))
-    args = RunArgs(resume=str(run_dir)) if run_dir else cell.run_args(cell_dir, progress)
-    return str(train_run(args))
+    hit = cells.stored(cell, Path(store))
+    if hit is not None:
+        return str(hit)
+    if run_dir is not None:
+        diff = cells.run_differences(run_dir, cell)
+        if diff:
+            raise ValueError(f"{run_dir} was run with another definition of {cell.name} "
+                             f"({'; '.join(diff[:6])}); delete {cell_dir} or use another "
+                             "--sweep-dir")  # fmt: skip
+    if not finished(run_dir, cell):
+        args = RunArgs(resume=str(run_dir)) if run_dir else cell.run_args(cell_dir, progress)
+        run_dir = train_run(args)
+        if not finished(run_dir, cell):  # interrupted: it saved, starting again resumes
+            return str(run_dir)
+    return str(cells.save(cell, run_dir, Path(store)))
+
+
+def result_dir(cell: Cell, cell_dir: Path, store: Path) -> Path | None:
+    """Where a finished cell's results are (the store; a library cell: its library)."""
+    if cell.samples:
+        run_dir = cell_run_dir(cell_dir)
+        return run_dir if finished(run_dir, cell) else None
+    from mjx_skills import cells
+
+    return cells.stored(cell, store)
 
 
 def build_library(cell: Cell, cell_dir: Path, progress: bool) -> Path:
@@ -138,7 +166,8 @@ def check_ray_address(address: str, timeout_s: float = 5.0) -> None:
         raise SystemExit(f"error: cannot reach the Ray cluster at {address!r}: {err}") from None
 
 
-def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str) -> list[str]:
+def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str, store: Path = STORE
+                  ) -> list[str]:  # fmt: skip
     check_ray_address(address)
     try:
         import ray
@@ -147,7 +176,8 @@ def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str) -> list[str
     ray.init(address=None if address == "local" else address, include_dashboard=False,
              log_to_driver=False, ignore_reinit_error=True)  # fmt: skip
     task = ray.remote(num_cpus=1)(run_cell)
-    pending = {task.remote(c, str(d), False): c for c, d in zip(cells, dirs, strict=True)}
+    pending = {task.remote(c, str(d), False, str(store)): c
+               for c, d in zip(cells, dirs, strict=True)}  # fmt: skip
     done_dirs: dict[Cell, str] = {}
     with tqdm(total=len(cells), desc="cells", unit="cell") as bar:
         while pending:
@@ -160,32 +190,35 @@ def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str) -> list[str
 
 
 def run_cells_local(
-    cells: list[Cell], dirs: list[Path], jobs: int, progress: bool, pin: bool = False
-) -> list[str]:
+    cells: list[Cell], dirs: list[Path], jobs: int, progress: bool, pin: bool = False,
+    store: Path = STORE,
+) -> list[str]:  # fmt: skip
     """Every cell, `jobs` at a time (in worker processes when jobs > 1; `pin`: each on its
-    own cores) -> run dirs."""
+    own cores) -> the directories of their results."""
     todo = [i for i, (c, d) in enumerate(zip(cells, dirs, strict=True))
-            if not finished(cell_run_dir(d), c)]  # fmt: skip
+            if result_dir(c, d, store) is None]  # fmt: skip
     for i, cell in enumerate(cells):
         state = "running" if i in todo else "done"
         print(f"[cell {i + 1}/{len(cells)}] {cell.name}: {state}", file=sys.stderr)
     jobs = min(jobs, len(todo))
     if jobs <= 1 or cells[0].samples:  # library cells share one work dir: one at a time
-        return [run_cell(c, str(d), progress) for c, d in zip(cells, dirs, strict=True)]
-    from mjx_skills.workers import run_pool
+        for i in todo:
+            run_cell(cells[i], str(dirs[i]), progress, str(store))
+    else:
+        from mjx_skills.workers import run_pool
 
-    with tqdm(total=len(todo), desc=f"cells ({jobs} at once)", unit="cell",
-              disable=not progress) as bar:  # fmt: skip
-        calls = [(cells[i], str(dirs[i]), False) for i in todo]
-        for k, _ in run_pool(run_cell, calls, jobs, pin):
-            bar.set_postfix_str(cells[todo[k]].name)
-            bar.update(1)
-    # Finished now, each in its own directory: read back in the experiment's order.
-    run_dirs = [cell_run_dir(d) for d in dirs]
-    unfinished = [c.name for c, r in zip(cells, run_dirs, strict=True) if not finished(r, c)]
+        with tqdm(total=len(todo), desc=f"cells ({jobs} at once)", unit="cell",
+                  disable=not progress) as bar:  # fmt: skip
+            calls = [(cells[i], str(dirs[i]), False, str(store)) for i in todo]
+            for k, _ in run_pool(run_cell, calls, jobs, pin):
+                bar.set_postfix_str(cells[todo[k]].name)
+                bar.update(1)
+    # Read back in the experiment's order.
+    found = [result_dir(c, d, store) for c, d in zip(cells, dirs, strict=True)]
+    unfinished = [c.name for c, r in zip(cells, found, strict=True) if r is None]
     if unfinished:  # a worker interrupted (Ctrl-C): it saved; starting again resumes
         raise SystemExit(f"error: cells not finished: {', '.join(unfinished)}; run again to resume")
-    return [str(r) for r in run_dirs]
+    return [str(r) for r in found]
 
 
 def run_sweep(
@@ -199,10 +232,11 @@ def run_sweep(
         raise SystemExit(f"error: {csv_path} exists; pass --overwrite to replace it")
     cells = exp.cells()
     dirs = [sweep_dir / c.name for c in cells]
+    store = results / "cells"
     if ray_address:
-        run_dirs = run_cells_ray(cells, dirs, ray_address)
+        run_dirs = run_cells_ray(cells, dirs, ray_address, store)
     else:
-        run_dirs = run_cells_local(cells, dirs, jobs, progress, pin)
+        run_dirs = run_cells_local(cells, dirs, jobs, progress, pin, store)
     if exp.kind == "library":
         from mjx_skills.skills import write_table
 
@@ -264,8 +298,11 @@ def main(argv: list[str] | None = None) -> None:
         print(cost.report(exp, jobs))
         return
     sweep_dir = args.sweep_dir or Path("runs") / "sweeps" / exp.name
-    paths = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray,
-                      not args.no_progress, jobs, args.pin)  # fmt: skip
+    try:
+        paths = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray,
+                          not args.no_progress, jobs, args.pin)  # fmt: skip
+    except ValueError as err:  # a stored cell or run of another definition
+        raise SystemExit(f"error: {err}") from None
     print(f"{len(exp.cells())} cells done; results: {', '.join(map(str, paths))}")
 
 

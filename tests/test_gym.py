@@ -18,7 +18,24 @@ def test_env_checker_passes(name):
     check_env(env.unwrapped, skip_render_check=True)
     obs, _ = env.reset(seed=0)
     assert env.observation_space.contains(obs)
-    assert env.spec.max_episode_steps == ENVS[name].default_episode_length
+    assert env.unwrapped.task.episode_length == ENVS[name].default_episode_length
+
+
+@pytest.mark.parametrize("make", [
+    lambda: gymnasium.make(gym_id("pick_move"), episode_length=10),
+    lambda: BaxterGymEnv("pick_move", episode_length=10),
+    lambda: gymnasium.make(gym_id("transit")),
+], ids=["gym.make", "direct", "default"])  # fmt: skip
+def test_episodes_truncate_after_the_task_episode_length(make):
+    """episode_length=10 ended after 50 steps with gym.make and never without it."""
+    env = make()
+    length = env.unwrapped.task.episode_length
+    env.reset(seed=0)
+    flags = [env.step(np.zeros(4, np.float32))[2:4] for _ in range(length)]
+    assert flags[:-1] == [(False, False)] * (length - 1)
+    assert flags[-1] == (False, True)
+    env.reset(seed=1)  # a new episode counts from zero again
+    assert env.step(np.zeros(4, np.float32))[3] is False
 
 
 def test_vectorised_compute_reward():

@@ -2,6 +2,7 @@
 are aggregated over seeds and never overwritten unasked; cells also run as Ray tasks."""
 
 import csv
+import dataclasses
 import json
 
 import pytest
@@ -93,6 +94,27 @@ def test_a_finished_sweep_skips_its_cells_and_keeps_its_results(finished_sweep):
     sweep.run_sweep(exp, root / "cells", root / "results", overwrite=True, progress=False)
     assert (first / "metrics.jsonl").read_text() == before  # nothing trained again
     assert len(list((root / "cells").iterdir())) == 1
+
+
+def test_a_stored_cell_is_reused_only_with_the_definition_that_made_it(finished_sweep, tmp_path):
+    """The finished cell is kept with its definition; a fresh sweep directory takes it from
+    the store without training; the same cell name with another `[train] cycles` is refused
+    naming the field, both from the store and from a run directory (it never prints "done"
+    with the old definition's results)."""
+    root, exp, first, _ = finished_sweep
+    results = root / "results"
+    cell = exp.cells()[0]
+    kept = results / "cells" / cell.name
+    assert read_metrics(kept) == read_metrics(first)
+    assert json.loads((kept / "definition.json").read_text())["config"]["train"]["cycles"] == 2
+    sweep.run_sweep(exp, tmp_path / "fresh", results, overwrite=True, progress=False)
+    assert not (tmp_path / "fresh").exists()  # nothing trained, no run directory made
+    other = dataclasses.replace(exp, train={**TINY, "cycles": 1})
+    assert other.cells()[0].name == cell.name
+    with pytest.raises(ValueError, match=r"train\.cycles: 2 != 1"):
+        sweep.run_sweep(other, tmp_path / "fresh", results, overwrite=True, progress=False)
+    with pytest.raises(ValueError, match=r"another definition.*train\.cycles"):
+        sweep.run_sweep(other, root / "cells", tmp_path / "elsewhere", progress=False)
 
 
 def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, tmp_path):

@@ -258,11 +258,18 @@ class BaxterEnv:
         opening = FINGER_CLOSED_CTRL + (action[3] + 1.0) * 0.5 * (FINGER_OPEN - FINGER_CLOSED_CTRL)
         return jnp.full((2,), opening), target
 
+    @staticmethod
+    def sanitize_action(action: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """-> (the action the env executes, 1.0 if the given one was invalid else 0.0).
+        NaN becomes 0; everything else is clipped to [-1, 1] (so +-inf acts as +-1, as a
+        huge value does). The JAX env and the gymnasium adapter both execute this."""
+        action = jnp.asarray(action, jnp.float32)
+        invalid = jnp.any(~jnp.isfinite(action) | (jnp.abs(action) > 1.0)).astype(jnp.float32)
+        return jnp.clip(jnp.where(jnp.isnan(action), 0.0, action), -1.0, 1.0), invalid
+
     def step(self, state: State, action: jax.Array) -> State:
         # NaN actions become 0 and out-of-range ones are clipped; both are counted.
-        finite = jnp.isfinite(action)
-        invalid = jnp.any(~finite | (jnp.abs(action) > 1.0)).astype(jnp.float32)
-        action = jnp.clip(jnp.where(finite, action, 0.0), -1.0, 1.0)
+        action, invalid = self.sanitize_action(action)
         grip_pos = self.sensors(state.physics.sensordata)["grip_pos"]
         ctrl, target = self.action_to_controls(grip_pos, action)
         path = smooth_path(grip_pos, target, self.config.n_substeps)

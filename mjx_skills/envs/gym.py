@@ -14,6 +14,8 @@ load models under mujoco 4.0.0 (an assertion on joint types).
 
 from __future__ import annotations
 
+import os
+
 import gymnasium
 import jax
 import jax.numpy as jnp
@@ -25,11 +27,34 @@ from mjx_skills.config import EnvConfig
 from mjx_skills.envs.baxter import smooth_path
 from mjx_skills.envs.registry import ENVS, make
 
+_IMPORT_PID = os.getpid()
+
+
+def _check_not_forked() -> None:
+    """JAX cannot run in a process forked from one where it started (its threads do not
+    survive the fork: the first JAX call hangs). Fail at once, naming the fix."""
+    if os.getpid() == _IMPORT_PID:
+        return
+    from jax._src import xla_bridge
+
+    if xla_bridge.backends_are_initialized():
+        raise RuntimeError(
+            "BaxterGymEnv was created in a process forked after JAX had started, where JAX "
+            "hangs; start worker processes with 'spawn': gymnasium.make_vec(..., "
+            "vectorization_mode='async', vector_kwargs={'context': 'spawn'}), "
+            "SubprocVecEnv(..., start_method='spawn'), or multiprocessing.get_context('spawn')"
+        )
+
 
 class BaxterGymEnv(gymnasium.Env):
+    """One Baxter task as a gymnasium goal env. `config`: EnvConfig fields (e.g.
+    episode_length=10); the env truncates its episodes after the task's episode length
+    itself, with or without gymnasium's TimeLimit."""
+
     metadata = {"render_modes": ["rgb_array"], "render_fps": 7}
 
     def __init__(self, task: str = "pick_move", render_mode: str | None = None, **config):
+        _check_not_forked()
         self.task = make(task, EnvConfig(physics="native", **config))
         self.model = self.task.model
         self.data = mujoco.MjData(self.model)
@@ -49,11 +74,12 @@ class BaxterGymEnv(gymnasium.Env):
         )
         self.action_space = spaces.Box(-1.0, 1.0, (t.action_dim,), np.float32)
         self._goal = np.zeros(t.goal_dim, np.float32)
+        self._steps = 0
 
     # ------------------------------------------------------------------ physics
     def _plan_fn(self, grip: jax.Array, action: jax.Array) -> tuple[jax.Array, jax.Array]:
         """-> finger controls and the mocap path (n_substeps, 3) of the JAX env's step."""
-        ctrl, target = self.task.action_to_controls(grip, jnp.clip(action, -1.0, 1.0))
+        ctrl, target = self.task.action_to_controls(grip, self.task.sanitize_action(action)[0])
         return ctrl, smooth_path(grip, target, self.task.config.n_substeps)
 
     def _observe_fn(self, sensordata: jax.Array, goal: jax.Array):
@@ -94,17 +120,20 @@ class BaxterGymEnv(gymnasium.Env):
         mujoco.mj_setState(self.model, self.data, np.asarray(state.physics.data, np.float64), spec)
         self.data.sensordata[:] = np.asarray(state.physics.sensordata)
         self._goal = np.asarray(state.desired_goal, np.float32)
+        self._steps = 0
         obs, reward = self._obs()
         return obs, {"is_success": reward == 0.0}
 
     def step(self, action):
-        action = np.nan_to_num(np.asarray(action, np.float32))
+        action = np.asarray(action, np.float32)  # sanitised as the JAX env does, in _plan
         grip = np.asarray(self.data.sensordata[self.task.sensor_slices["grip_pos"]], np.float32)
         ctrl, path = self._plan(grip, action)
         self.data.qacc_warmstart[:] = 0.0  # each step starts cold, as mujoco.rollout does
         self._substeps(np.asarray(ctrl), np.asarray(path))
         obs, reward = self._obs()
-        return obs, reward, False, False, {"is_success": reward == 0.0}
+        self._steps += 1
+        truncated = self._steps >= self.task.episode_length
+        return obs, reward, False, truncated, {"is_success": reward == 0.0}
 
     def compute_reward(self, achieved_goal, desired_goal, info):
         """Vectorised sparse reward (0 success, -1 otherwise) over leading batch axes."""
@@ -130,11 +159,9 @@ def gym_id(task: str) -> str:
     return "MjxSkills/" + "".join(part.capitalize() for part in task.split("_")) + "-v0"
 
 
-for _name, _cls in ENVS.items():
+# No max_episode_steps: the env truncates after its own episode length, which a user's
+# episode_length=... changes (a TimeLimit fixed at registration would not follow it).
+for _name in ENVS:
     if gym_id(_name) not in gymnasium.registry:
-        gymnasium.register(
-            id=gym_id(_name),
-            entry_point="mjx_skills.envs.gym:BaxterGymEnv",
-            kwargs={"task": _name},
-            max_episode_steps=_cls.default_episode_length,
-        )
+        gymnasium.register(id=gym_id(_name), entry_point="mjx_skills.envs.gym:BaxterGymEnv",
+                           kwargs={"task": _name})  # fmt: skip

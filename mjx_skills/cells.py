@@ -1,0 +1,104 @@
+"""Finished sweep cells kept with the definition that made them, so results are reused only
+when the same definition would make them again.
+
+A cell's definition is the run's whole config (method, train, env and every option group),
+without what does not change results (output directory, progress bar, checkpoint period),
+plus the provenance of the skill library it searched with (its git commit and scenes'
+digest): a rebuilt library makes new cells. The store, `experiments/results/cells/CELL/`,
+is committed: `definition.json` and the run's `metrics.jsonl` (one line per epoch per seed).
+A sweep takes a stored cell whose definition matches instead of training it, so an
+interrupted campaign picks up from the committed cells on a fresh clone; a stored cell of
+the same name and another definition is refused with the fields that differ.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+STORE = Path("experiments") / "results" / "cells"
+VOLATILE = {("train", "out"), ("train", "progress"), ("train", "checkpoint_every")}
+"""Config fields that do not change a run's results."""
+
+
+def run_config(args) -> dict[str, Any]:
+    """A `runner.RunArgs` as config.json holds it (version excluded)."""
+    import dataclasses
+
+    groups = {name: dataclasses.asdict(opt) for name, opt in args.full_options().items()}
+    return json.loads(json.dumps({"method": args.method, "train": dataclasses.asdict(args.train),
+                                  "env": dataclasses.asdict(args.env), "options": groups}))  # fmt: skip
+
+
+def _results_part(config: dict[str, Any]) -> dict[str, Any]:
+    """`config` without the volatile fields and the version."""
+    out = {k: v for k, v in config.items() if k != "version"}
+    for group, field in VOLATILE:
+        out[group] = {k: v for k, v in out.get(group, {}).items() if k != field}
+    return out
+
+
+def library_provenance(config: dict[str, Any]) -> dict[str, Any] | None:
+    """The commit and scenes' digest of the library a config's method reads (None: none)."""
+    from mjx_skills.library import read_manifest
+
+    for group in config.get("options", {}).values():
+        if "library_dir" in group:
+            manifest = read_manifest(Path(group["library_dir"]))
+            return {"commit": manifest.get("commit"), "scenes": manifest.get("scenes")}
+    return None
+
+
+def definition(cell) -> dict[str, Any]:
+    """What makes a cell's results: its run config and its library's provenance."""
+    config = _results_part(run_config(cell.run_args(out="", progress=False)))
+    return {"config": config, "library": library_provenance(config)}
+
+
+def differences(a: Any, b: Any, path: str = "") -> list[str]:
+    """Dotted paths where two JSON-like values differ, with both values."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return [d for k in sorted(set(a) | set(b))
+                for d in differences(a.get(k), b.get(k), f"{path}.{k}" if path else k)]  # fmt: skip
+    return [] if a == b else [f"{path}: {a!r} != {b!r}"]
+
+
+def run_differences(run_dir: Path, cell) -> list[str]:
+    """How a run directory's config.json differs from what `cell` would write ([] = same)."""
+    raw = json.loads((Path(run_dir) / "config.json").read_text())
+    return differences(_results_part(raw), definition(cell)["config"])
+
+
+def stored(cell, store: Path = STORE) -> Path | None:
+    """The stored metrics of `cell` if its definition matches; None if not stored. A stored
+    cell of the same name and another definition raises ValueError naming the fields."""
+    where = store / cell.name
+    if not (where / "definition.json").exists():
+        return None
+    diff = differences(json.loads((where / "definition.json").read_text()), definition(cell))
+    if diff:
+        raise ValueError(
+            f"the stored cell {where} was made by another definition ({'; '.join(diff[:6])}); "
+            f"delete that directory to train the cell again, or change the cell's name"
+        )
+    return where
+
+
+def save(cell, run_dir: Path, store: Path = STORE) -> Path:
+    """Keep a finished cell's metrics beside its definition (written whole or not at all)."""
+    from mjx_skills.library import provenance
+
+    where = store / cell.name
+    tmp = where.with_name(f".{where.name}.partial")
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    shutil.copyfile(Path(run_dir) / "metrics.jsonl", tmp / "metrics.jsonl")
+    meta = {**definition(cell), "made_by": provenance()}
+    (tmp / "definition.json").write_text(json.dumps(
+        {k: meta[k] for k in ("config", "library")}, indent=1, sort_keys=True))  # fmt: skip
+    (tmp / "made_by.json").write_text(json.dumps(meta["made_by"], indent=1))
+    shutil.rmtree(where, ignore_errors=True)
+    tmp.rename(where)
+    return where

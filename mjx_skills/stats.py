@@ -1,0 +1,107 @@
+"""Learning-curve statistics as the field reports them: means over seeds with 95 % stratified
+bootstrap confidence intervals (rliable, Agarwal et al. 2021), the last-5-epoch mean, the
+first epoch a rolling mean reaches a level, and the area under the curve.
+
+Every function takes eval success as a (seeds, epochs) array: one row per seed, one column
+per epoch (20 frozen-policy episodes each). Intervals are percentile bootstrap intervals
+over seeds with a fixed generator, so a report regenerates bit for bit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+
+REPS = 2000
+"""Bootstrap replications per interval."""
+CONFIDENCE = 0.95
+LAST = 5
+"""Epochs averaged for the final performance."""
+WINDOW = 5
+"""Epochs of the rolling mean that decides when a level is reached."""
+
+
+def interval(values: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-column mean over rows and its 95 % bootstrap interval.
+
+    values: (runs, k) -> (mean (k,), low (k,), high (k,)). Rows are resampled within each
+    column (rliable's stratified bootstrap). One run gives an interval of zero width."""
+    values = np.asarray(values, dtype=np.float64)
+    mean = values.mean(axis=0)
+    if values.shape[0] < 2:
+        return mean, mean.copy(), mean.copy()
+    from rliable import library as rly
+
+    # rliable 1.2's StratifiedBootstrap draws its indices from NumPy's global generator
+    # (np.random.choice) whatever `random_state` says: seed that one, and restore it.
+    saved = np.random.get_state()  # noqa: NPY002 - rliable reads the legacy generator
+    np.random.seed(seed)  # noqa: NPY002
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # arch's notice about RandomState
+            _, ci = rly.get_interval_estimates(
+                {"x": values}, lambda s: s.mean(axis=0), reps=REPS,
+                confidence_interval_size=CONFIDENCE, random_state=np.random.RandomState(seed))  # fmt: skip
+    finally:
+        np.random.set_state(saved)  # noqa: NPY002
+    low, high = ci["x"]
+    return mean, np.minimum(low, mean), np.maximum(high, mean)
+
+
+def first_reaching(curve: np.ndarray, level: float = 0.9, window: int = WINDOW) -> int | None:
+    """First epoch (1-based) whose `window`-epoch rolling mean of `curve` (the seeds' mean
+    per epoch) is >= level; None if never. Epochs before the first full window do not count."""
+    curve = np.asarray(curve, dtype=np.float64)
+    if len(curve) < window:
+        return None
+    rolling = np.convolve(curve, np.ones(window) / window, mode="valid")
+    hits = np.nonzero(rolling >= level - 1e-9)[0]
+    return int(hits[0]) + window if len(hits) else None
+
+
+@dataclasses.dataclass(frozen=True)
+class Summary:
+    """One cell's learning curve in numbers."""
+
+    seeds: int
+    epochs: int
+    curve: np.ndarray
+    """(epochs,) mean over seeds."""
+    curve_low: np.ndarray
+    curve_high: np.ndarray
+    last: tuple[float, float, float]
+    """Mean over seeds of each seed's last-5-epoch mean, with its interval."""
+    auc: tuple[float, float, float]
+    """Mean success over all epochs (area under the curve / epochs), with its interval."""
+    reach_90: int | None
+    """First epoch at which the 5-epoch rolling mean of the seeds' mean reaches 0.9."""
+    reach_50: int | None
+    wall_s: float = 0.0
+    """Wall time of the run (s), when known."""
+
+
+def summarize(scores: np.ndarray, wall_s: float = 0.0) -> Summary:
+    """scores: (seeds, epochs) eval success -> Summary."""
+    scores = np.asarray(scores, dtype=np.float64)
+    curve, low, high = interval(scores)
+    per_seed = np.stack([scores[:, -LAST:].mean(axis=1), scores.mean(axis=1)], axis=1)
+    point, lo, hi = interval(per_seed)
+    return Summary(seeds=scores.shape[0], epochs=scores.shape[1], curve=curve, curve_low=low,
+                   curve_high=high, last=(point[0], lo[0], hi[0]), auc=(point[1], lo[1], hi[1]),
+                   reach_90=first_reaching(curve, 0.9), reach_50=first_reaching(curve, 0.5),
+                   wall_s=wall_s)  # fmt: skip
+
+
+def scores_from_rows(rows: list[dict], key: str = "eval_success") -> np.ndarray:
+    """metrics.jsonl rows (one per epoch per seed) -> (seeds, epochs) array of `key`.
+    Raises ValueError when a seed lacks an epoch."""
+    seeds = sorted({r["seed"] for r in rows})
+    epochs = sorted({r["epoch"] for r in rows})
+    out = np.full((len(seeds), len(epochs)), np.nan)
+    for r in rows:
+        out[seeds.index(r["seed"]), epochs.index(r["epoch"])] = r[key]
+    if np.isnan(out).any():
+        raise ValueError("incomplete metrics: some seed lacks some epoch")
+    return out

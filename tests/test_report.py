@@ -1,0 +1,68 @@
+"""The results report: its statistics on known curves, its verdict rules, and the committed
+docs/results.md is exactly what the committed data gives."""
+
+import numpy as np
+import pytest
+
+from mjx_skills import report, stats
+
+
+def test_first_reaching_uses_the_rolling_mean_not_a_single_epoch():
+    curve = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9])
+    assert stats.first_reaching(curve, 0.9) == 10  # epochs 6-10 average 0.9
+    assert stats.first_reaching(curve, 0.5) == 7  # epochs 3-7: (1 + 0.9 + 0.9) / 5 = 0.56
+    assert stats.first_reaching(np.full(4, 1.0), 0.9) is None  # no full window yet
+    assert stats.first_reaching(np.full(20, 0.5), 0.9) is None
+
+
+def test_intervals_cover_the_mean_and_shrink_to_it_without_spread():
+    rng = np.random.default_rng(0)
+    scores = rng.uniform(0, 1, (5, 30))
+    mean, low, high = stats.interval(scores)
+    np.testing.assert_allclose(mean, scores.mean(axis=0))
+    assert np.all(low <= mean) and np.all(mean <= high) and np.all(high - low > 0)
+    assert np.all(low >= scores.min(axis=0) - 1e-12) and np.all(high <= scores.max(axis=0) + 1e-12)
+    flat = np.full((5, 3), 0.4)
+    _, low, high = stats.interval(flat)
+    np.testing.assert_allclose([low, high], 0.4)
+    again = stats.interval(scores)  # a fixed generator: the report regenerates bit for bit
+    np.testing.assert_array_equal(again[1], stats.interval(scores)[1])
+
+
+def test_the_summary_averages_each_seeds_last_five_epochs():
+    scores = np.zeros((3, 10))
+    scores[0, -5:] = 1.0  # seed 0 learned; its last 5 epochs average 1
+    scores[1, -2:] = 1.0  # seed 1: 2 of its last 5
+    s = stats.summarize(scores)
+    assert s.last[0] == pytest.approx((1.0 + 0.4 + 0.0) / 3)
+    assert s.auc[0] == pytest.approx(scores.mean())
+    assert s.seeds == 3 and s.epochs == 10 and s.reach_90 is None
+
+
+def test_scores_from_rows_refuses_a_missing_epoch():
+    rows = [{"seed": s, "epoch": e, "eval_success": 0.1 * e} for s in (0, 1) for e in (1, 2)]
+    np.testing.assert_allclose(stats.scores_from_rows(rows), [[0.1, 0.2], [0.1, 0.2]])
+    with pytest.raises(ValueError, match="incomplete"):
+        stats.scores_from_rows(rows[:-1])
+
+
+def _summary(last, auc=(0.5, 0.4, 0.6)):
+    return stats.Summary(seeds=5, epochs=100, curve=np.zeros(100), curve_low=np.zeros(100),
+                         curve_high=np.zeros(100), last=last, auc=auc, reach_90=None,
+                         reach_50=None)  # fmt: skip
+
+
+def test_verdict_rules():
+    baseline = _summary((0.02, 0.0, 0.05))
+    assert report.fails(baseline) and not report.learns(baseline)
+    assert report.learns(_summary((0.6, 0.3, 0.9)), baseline)
+    assert not report.learns(_summary((0.6, 0.04, 0.9)), baseline)  # overlaps the baseline
+    assert not report.learns(_summary((0.45, 0.3, 0.6)))
+    fast, slow = _summary((1, 1, 1), (0.7, 0.65, 0.75)), _summary((1, 1, 1), (0.6, 0.5, 0.66))
+    assert report.above(fast, slow) is False  # 0.65 < 0.66: the intervals overlap
+    assert report.above(fast, _summary((1, 1, 1), (0.6, 0.5, 0.64)))
+
+
+def test_the_committed_report_is_what_the_committed_data_gives():
+    """`python -m mjx_skills.report --check`: any hand edit or stale number fails."""
+    report.main(["--check"])
