@@ -1,18 +1,17 @@
-"""The README's "Speed" section, generated from the committed benchmark results.
+"""docs/benchmarks.md's "Speed" section, generated from the committed benchmark results.
 
     python benchmarks/speed_report.py            # print the section
-    python benchmarks/speed_report.py --write    # replace it in README.md
+    python benchmarks/speed_report.py --write    # replace it in docs/benchmarks.md
 
 Reads benchmarks/results/{epoch_cost,sweep_parallel,search,confirm_estimate,make_train}.jsonl
 and the committed learning curves it names; every number in the section is computed here
-(tests/test_package.py checks that README.md holds exactly what this prints).
+(tests/test_package.py checks that docs/benchmarks.md holds exactly what this prints).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import statistics
 import sys
 from pathlib import Path
 
@@ -30,12 +29,6 @@ METHODS = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS", "ddpg_her_sl": 
 def rows(name: str) -> list[dict]:
     path = RESULTS / f"{name}.jsonl"
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-
-
-def late_epoch_s(path: Path, first: int, last: int) -> float:
-    """Median seconds per epoch of a committed curve over epochs first..last (seed 0)."""
-    wall = {r["epoch"]: r["wall_s"] for r in map(json.loads, path.open()) if r["seed"] == 0}
-    return statistics.median(wall[e] - wall[e - 1] for e in range(first, last + 1))
 
 
 def epoch_cost() -> list[str]:
@@ -60,14 +53,6 @@ def epoch_cost() -> list[str]:
         if r and "physics_s" in r:
             out.append(f"| {label} | {r['physics_s']:.2f} | {r['behaviour_s']:.2f} | "
                        f"{r['updates_s']:.2f} | {r['eval_s']:.2f} | {r['host_s']:.2f} |")  # fmt: skip
-    curves = ROOT / "experiments" / "results"
-    sl = late_epoch_s(curves / "pick_move_ddpg_her_sl.jsonl", 31, 50)
-    flat = late_epoch_s(curves / "pick_move_ddpg_her.jsonl", 31, 50)
-    out += ["", f"Before (the committed 3-seed pick_move curves, made before this change: median "
-            f"s/epoch over epochs 31-50, eps = 0.001, seed 0's `wall_s`): DDPG+HER+SL {sl:.1f} s, "
-            f"DDPG+HER {flat:.1f} s, **{sl / flat:.2f}x**. After: "
-            f"**{by['sl_eps0', 3]['epoch_s'] / ref:.2f}x** at eps = 0.001 and "
-            f"**{by['sl_eps1', 3]['epoch_s'] / ref:.2f}x** at eps = 1."]  # fmt: skip
     return out
 
 
@@ -121,51 +106,36 @@ def sweeps() -> list[str]:
 
 def curve_summary(rows: list[dict]) -> tuple[float, int | None]:
     """(mean over seeds of the last 5 epochs, first epoch whose 5-epoch rolling mean of the
-    seeds' mean eval success is >= 0.90, or None)."""
-    by: dict[int, list[float]] = {}
-    for r in rows:
-        by.setdefault(r["epoch"], []).append(r["eval_success"])
-    means = [statistics.fmean(by[e]) for e in sorted(by)]
-    rolling = [statistics.fmean(means[max(0, i - 4) : i + 1]) for i in range(len(means))]
-    hit = next((i + 1 for i, m in enumerate(rolling) if i >= 4 and m >= 0.9), None)
-    return statistics.fmean(means[-5:]), hit
+    seeds' mean eval success is >= 0.90, or None): `mjx_skills.stats`, as the report."""
+    from mjx_skills import stats
+
+    scores = stats.scores_from_rows(rows)
+    return float(scores[:, -stats.LAST :].mean()), stats.first_reaching(scores.mean(axis=0), 0.9)
 
 
 def learning(name: str) -> list[str]:
-    """The confirming row's learning, and DDPG+HER+SL's against its curve before this change
-    (the search's random draws are now per env, so the bits differ)."""
-    curves = ROOT / "experiments" / "results"
+    """The confirming row's learning."""
+    curves = ROOT / "experiments" / "results" / "archive"
     rows = [json.loads(line) for line in (curves / f"{name}.jsonl").open()]
     parts = []
     for method, label in METHODS.items():
         last5, hit = curve_summary([r for r in rows if r["method"] == method])
         parts.append(f"{label} {last5:.2f}" + (f" (0.90 first at epoch {hit})" if hit else ""))
-    old = [json.loads(line) for line in (curves / "pick_move_ddpg_her_sl.jsonl").open()]
-    old_last5, old_hit = curve_summary(old)
     seeds = len({r["seed"] for r in rows})
-    return [f"That row's learning ({seeds} seeds, mean eval success of the last 5 epochs; 0.90: "
-            f"the 5-epoch rolling mean of the seeds' mean): {'; '.join(parts)}. Before this change "
-            f"(`pick_move_ddpg_her_sl.jsonl`, 3 seeds): DDPG+HER+SL {old_last5:.2f}, 0.90 first "
-            f"at epoch {old_hit}. Each env now draws its search tree from its own key, so the "
-            f"runs are not the same bits as before."]  # fmt: skip
+    return [f"That row's learning ({seeds} seeds, `experiments/results/archive/{name}.jsonl`, "
+            f"mean eval success of the last 5 epochs; 0.90: the 5-epoch rolling mean of the "
+            f"seeds' mean): {'; '.join(parts)}."]  # fmt: skip
 
 
 def first_epochs(name: str) -> list[str]:
-    """Seconds to the end of epoch 1 (trace, compile, the first epoch) per pick_move method:
-    the committed Fig. 6.3 run (before) and the confirming run (after)."""
-    curves = ROOT / "experiments" / "results"
-
-    def first(path: Path) -> dict[str, float]:
-        rows = [json.loads(line) for line in path.open()]
-        return {r["method"]: r["wall_s"] for r in rows
-                if r["task"] == "pick_move" and r["epoch"] == 1 and r["seed"] == 0}  # fmt: skip
-
-    before, after = first(curves / "fig6_3.jsonl"), first(curves / f"{name}.jsonl")
-    cells = "; ".join(f"{label} {before[m]:.0f} -> {after[m]:.0f} s" for m, label in METHODS.items()
-                      if m in before and m in after)  # fmt: skip
+    """Seconds to the end of epoch 1 (trace, compile, the first epoch) per pick_move method."""
+    rows = [json.loads(line) for line in (ROOT / "experiments" / "results" / "archive" /
+                                          f"{name}.jsonl").open()]  # fmt: skip
+    first = {r["method"]: r["wall_s"] for r in rows
+             if r["task"] == "pick_move" and r["epoch"] == 1 and r["seed"] == 0}  # fmt: skip
+    cells = "; ".join(f"{label} {first[m]:.0f} s" for m, label in METHODS.items() if m in first)
     return [f"Seconds to the end of epoch 1 (tracing, compiling, the first epoch; `wall_s` of "
-            f"epoch 1): {cells} (before: `fig6_3.jsonl`, 3 seeds, one cell at a time; after: "
-            f"`{name}.jsonl`, 5 seeds, two cells at once). Every cell still compiles its own "
+            f"epoch 1, 5 seeds, two cells at once): {cells}. Every cell compiles its own "
             f"epoch: JAX's persistent cache does not store programs with host callbacks (the "
             f"native physics), and no two cells of the thesis's experiments share a program; "
             f"runs that do (same method, task and shapes) share one compiled epoch per process "
@@ -218,16 +188,16 @@ def section() -> str:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__)
-    p.add_argument("--write", action="store_true", help="replace the section in README.md")
+    p.add_argument("--write", action="store_true", help="replace the section in docs/benchmarks.md")
     args = p.parse_args()
     text = section()
     if not args.write:
         print(text)
         return
-    readme = ROOT / "README.md"
+    readme = ROOT / "docs" / "benchmarks.md"
     old = readme.read_text()
     if BEGIN not in old or END not in old:
-        sys.exit(f"README.md has no {BEGIN!r} ... {END!r} block to replace")
+        sys.exit(f"docs/benchmarks.md has no {BEGIN!r} ... {END!r} block to replace")
     head, rest = old.split(BEGIN, 1)
     readme.write_text(head + text + rest.split(END, 1)[1])
 

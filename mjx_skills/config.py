@@ -65,9 +65,12 @@ class DDPGConfig:
     gamma: float = 0.98
     """Discount factor (Table 6.1)."""
     tau: float = 0.05
-    """Soft target update rate: target <- (1 - tau) target + tau online. Table 6.1 says
-    1e-3, with 8 workers x 800 updates per epoch; at our 400 updates per epoch targets that
-    slow left transit at 15 % after 20 epochs, 0.05 (the HER baselines' polyak 0.95) at 100 %."""
+    """Soft target update rate, applied after every gradient step: target <- (1 - tau)
+    target + tau online. Table 6.1 says 1e-3, with 8 workers x 800 updates per epoch; at our
+    400 updates per epoch targets that slow left transit at 15 % after 20 epochs, 0.05 at
+    100 % (docs/methods.md, "Hyperparameters"). The value is the HER baselines' polyak 0.95,
+    but they apply it once per cycle of 40 gradient steps, so our targets follow the online
+    networks much faster per gradient step (a per-cycle update is not measured here)."""
     batch_size: int = 128
     """Transitions per gradient step (Table 6.1)."""
     noise_sigma: float = 0.2

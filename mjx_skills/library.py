@@ -239,16 +239,19 @@ def subset(lib: SkillLibrary, name: str) -> SkillLibrary:
 
 
 # ---------------------------------------------------------------------- artifact on disk
-def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any]) -> Path:
+def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
+         made_by: dict[str, str] | None = None) -> Path:  # fmt: skip
     """Write the library to `directory` (which must not exist): arrays through orbax into a
-    temporary sibling, then manifest.json, then one rename, so a reader never sees half."""
+    temporary sibling, then manifest.json, then one rename, so a reader never sees half.
+    `made_by`: the `provenance()` of the code that built it, taken when the build started
+    (default: now)."""
     directory = Path(directory).resolve()
     if directory.exists():
         raise FileExistsError(f"{directory} exists; a library is never overwritten")
     tmp = directory.with_name(f".{directory.name}.partial-{int(time.time())}")
     with ocp.StandardCheckpointer() as ckpt:
         ckpt.save(tmp / "arrays", lib)
-    full = {**manifest, "format": FORMAT, **provenance(), "skills": list(lib.names),
+    full = {**manifest, "format": FORMAT, **(made_by or provenance()), "skills": list(lib.names),
             "ddpg": dataclasses.asdict(lib.ddpg_config),
             "library": dataclasses.asdict(lib.config), "complete": True}  # fmt: skip
     (tmp / "manifest.json").write_text(json.dumps(full, indent=2))

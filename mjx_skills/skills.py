@@ -221,6 +221,7 @@ def build(args: SkillsArgs, work: Path | None = None) -> Path:
             f"{out} exists; a library is never overwritten (choose another --out, or delete it)"
         )
     library.remove_partials(out)
+    made_by = library.provenance()  # the code as it was loaded, before a long build
     work = work or out.with_name(f".{out.name}.work")
     config, timings, success, agents, runs, data = args.config, {}, {}, [], {}, {}
     for name in SKILLS:
@@ -248,7 +249,7 @@ def build(args: SkillsArgs, work: Path | None = None) -> Path:
                      "param_dim": e.param_dim} for n, e in zip(SKILLS, lib.envs, strict=True)},
         "fit_history": history,
     }  # fmt: skip
-    return library.save(lib, out, manifest)
+    return library.save(lib, out, manifest, made_by)
 
 
 def _by_source(d: dict[str, np.ndarray]) -> dict[str, float]:

@@ -60,6 +60,33 @@ def test_transit_matches_the_jax_env(env_factory):
     np.testing.assert_allclose(obs["observation"][:6], np.asarray(state.obs[:6]), atol=0.005)
 
 
+ODD_ACTIONS = np.array([
+    [np.inf, 0, 0, 1], [-np.inf, np.inf, 0, -1], [np.nan, 0, np.nan, 1], [1e30, -1e30, 0, 1],
+    [1e-30, 0, -1e-30, -1], [0.5, -0.25, 0.1, 0.3],
+], np.float32)  # fmt: skip
+"""+-inf, NaN, huge and tiny values (and one ordinary action for reference)."""
+
+
+@pytest.mark.parametrize("task", list(ENVS))
+def test_the_adapter_and_the_jax_env_agree_on_odd_actions(task, env_factory):
+    """From the same reset, one step of each odd action moves grip and cube alike in both
+    (an inf once moved the grip 0 cm in the JAX env and 4.7 cm in the adapter)."""
+    key = jax.random.PRNGKey(11)
+    jax_env = env_factory(task)
+    start = jax.jit(jax_env.reset)(key)
+    moved = jax.jit(jax.vmap(jax_env.step, in_axes=(None, 0)))(start, ODD_ACTIONS)
+    gym_env = BaxterGymEnv(task)
+    for i, action in enumerate(ODD_ACTIONS):
+        before, _ = gym_env.reset(options={"jax_key": key})
+        after, *_ = gym_env.step(action)
+        want = np.asarray(moved.obs[i, :6])
+        np.testing.assert_allclose(after["observation"][:6], want, atol=0.005, err_msg=str(action))
+        assert np.all(np.isfinite(after["observation"]))
+    grip_moves = np.linalg.norm(np.asarray(moved.obs[:, :3]) - np.asarray(start.obs[:3]), axis=1)
+    assert grip_moves[0] > 0.03 and grip_moves[1] > 0.03  # +-inf act as +-1: a 5 cm move
+    assert grip_moves[2] < grip_moves[0]  # NaN acts as 0 on its axis
+
+
 def test_scripted_pick_move_succeeds_in_both(env_factory):
     key = jax.random.PRNGKey(7)
     jax_env = env_factory("pick_move")
@@ -72,3 +99,35 @@ def test_scripted_pick_move_succeeds_in_both(env_factory):
         obs, reward, *_ = gym_env.step(np.asarray(policy(obs["observation"], obs["desired_goal"])))
     assert float(state.metrics["success"]) == 1.0
     assert reward == 0.0
+
+
+VECTOR = """
+import sys, gymnasium, numpy as np
+import mjx_skills.envs.gym
+from mjx_skills.envs.gym import gym_id
+context = sys.argv[1]
+try:
+    envs = gymnasium.make_vec(gym_id("transit"), num_envs=2, vectorization_mode="async",
+                              vector_kwargs={"context": context})
+    obs, _ = envs.reset(seed=0)
+    obs, reward, *_ = envs.step(np.zeros((2, 4), np.float32))
+    print("OK", obs["observation"].shape)
+    envs.close()
+except Exception as err:
+    print("ERROR", type(err).__name__, err)
+"""
+
+
+@pytest.mark.parametrize("context", ["spawn", "fork"])
+def test_async_vector_envs_spawn_or_fail_at_once_when_forked(context):
+    """A forked worker hung in its first JAX call (3 of 3 tries); spawned ones work."""
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-c", VECTOR, context], capture_output=True,
+                         text=True, timeout=300)  # fmt: skip
+    if context == "spawn":
+        assert "OK (2, 25)" in run.stdout, run.stdout + run.stderr
+    else:  # the worker's error (with the fix) on stderr; the parent's pipe broke at once
+        assert "ERROR" in run.stdout, run.stdout
+        assert "forked after JAX had started" in run.stderr and "'spawn'" in run.stderr

@@ -238,3 +238,27 @@ def test_rows_grouped_by_skill_get_their_own_skills_network(rows, skills_used):
     got = jax.jit(lambda s, x: apply_per_row(fn, (weights, bias), s, x))(skill, x)
     want = np.tanh(np.einsum("ri,rio->ro", x, np.asarray(weights)[skill]) + np.asarray(bias)[skill])
     np.testing.assert_allclose(got, want, atol=1e-5)
+
+
+def test_a_library_from_other_scenes_or_code_is_flagged_with_the_rebuild_command(tmp_path, caplog):
+    """The manifest records version, commit and the scenes' digest; a library built in
+    other scenes (the cube got a floor since the old one) or by another version is warned
+    about with the command that rebuilds it; one that matches is read silently."""
+    made = library.provenance()
+    assert made["scenes"] == library.scenes_digest() and len(made["scenes"]) == 16
+    assert made["commit"] == "unknown" or len(made["commit"].split("+")[0]) == 40
+    manifest = {"complete": True, "format": library.FORMAT, **made}
+    for name, changes, reason in (
+        ("current", {}, None),
+        ("old_scenes", {"scenes": "0" * 16}, "other scenes"),
+        ("no_record", {"scenes": None}, "before the scenes"),
+        ("other_version", {"version": "0.0.1"}, "version 0.0.1"),
+    ):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "manifest.json").write_text(json.dumps({**manifest, **changes}))
+        caplog.clear()
+        library.read_manifest(tmp_path / name)
+        if reason is None:
+            assert not caplog.records
+        else:
+            assert reason in caplog.text and "python -m mjx_skills.skills --out" in caplog.text

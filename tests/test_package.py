@@ -28,15 +28,15 @@ def test_importing_the_package_has_no_side_effects():
     assert out.stdout.strip() == "None"
 
 
-def test_the_readme_speed_section_is_what_the_committed_results_give():
-    """Every figure of README.md's "Speed" section is computed from committed benchmark
-    results by benchmarks/speed_report.py (run it with --write after a benchmark)."""
+def test_the_speed_section_is_what_the_committed_results_give():
+    """Every figure of docs/benchmarks.md's "Speed" section is computed from committed
+    benchmark results by benchmarks/speed_report.py (run it with --write after a benchmark)."""
     import runpy
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
     report = runpy.run_path(str(root / "benchmarks" / "speed_report.py"))
-    readme = (root / "README.md").read_text()
+    readme = (root / "docs" / "benchmarks.md").read_text()
     start = readme.index(report["BEGIN"])
     end = readme.index(report["END"]) + len(report["END"])
     assert readme[start:end] == report["section"](), "run python benchmarks/speed_report.py --write"
