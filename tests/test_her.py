@@ -147,3 +147,27 @@ def test_vmap_over_seeds(buffer):
 def test_unknown_strategy(buffer):
     with pytest.raises(ValueError):
         her.sample_batch(buffer, jax.random.key(0), 4, compute_reward, "later", 0.8)
+
+
+def test_the_last_step_of_an_episode_bootstraps_through_the_time_limit(buffer):
+    """Episodes end by time limit only: a transition at the last step (t = T - 1) carries no
+    terminal flag, its next observation is the episode's final one, and its critic target
+    depends on that observation through gamma * Q' (it is not the reward alone)."""
+    from mjx_skills import ddpg
+    from mjx_skills.config import DDPGConfig
+
+    batch = sampler("none")(buffer, jax.random.key(3), 512, relabel_prob=0.0)
+    assert "terminal" not in batch
+    last = np.asarray(batch["obs"][:, 1]) == T - 1
+    assert last.sum() > 10
+    np.testing.assert_array_equal(np.asarray(batch["next_obs"])[last, 1], T)  # the final obs
+    config = DDPGConfig(hidden=(16,), clip_target=False)
+    state = ddpg.init(jax.random.key(0), 3, 2, 2, config)
+    state = ddpg.observe(state, batch["obs"], batch["goal"])
+    learner_batch = {k: batch[k] for k in ("obs", "next_obs", "goal", "action", "reward")}
+    y = np.asarray(ddpg.td_target(state, learner_batch, config))
+    moved = {**learner_batch, "next_obs": batch["next_obs"] + 3.0}
+    y_moved = np.asarray(ddpg.td_target(state, moved, config))
+    reward = np.asarray(batch["reward"])
+    assert np.all(np.abs(y[last] - reward[last]) > 1e-6)  # gamma * Q' is there
+    assert np.all(np.abs(y[last] - y_moved[last]) > 1e-6)  # and reads the final observation
