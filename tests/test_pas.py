@@ -147,16 +147,18 @@ def test_a_meta_step_is_the_skills_own_run(env_factory):
 TINY = dict(task="pick_move", envs=2, cycles=2, updates_per_cycle=3, eval_episodes=2,
             replay_capacity=3000, progress=False)  # fmt: skip
 LIBRARY_METHODS = {
-    "ddpg_her_sl": {"search": SearchConfig(branching=3, height=2)},
-    "mpas": {"pas": PASConfig(hindsight=True, updates_per_cycle=3)},
-    "pas": {"pas": PASConfig(critic="joint", terminal_at_goal=False, updates_per_cycle=3)},
+    "ddpg_her_sl": ("ddpg_her_sl", {"search": SearchConfig(branching=3, height=2)}),
+    # The default tree (K = 5, height 3) with the default stall memory and waypoints.
+    "ddpg_her_sl_default_tree": ("ddpg_her_sl", {"search": SearchConfig()}),
+    "mpas": ("mpas", {"pas": PASConfig(hindsight=True, updates_per_cycle=3)}),
+    "pas": ("pas", {"pas": PASConfig(critic="joint", terminal_at_goal=False, updates_per_cycle=3)}),
 }
 
 
-def _args(tmp_path, method, **overrides):
+def _args(tmp_path, case, **overrides):
+    method, options = LIBRARY_METHODS[case]
     return RunArgs(train=TrainConfig(**{**TINY, "out": str(tmp_path), **overrides}),
-                   method=method, env=EnvConfig(episode_length=12),
-                   options=LIBRARY_METHODS[method])  # fmt: skip
+                   method=method, env=EnvConfig(episode_length=12), options=options)  # fmt: skip
 
 
 def _rows(run_dir):
@@ -164,11 +166,12 @@ def _rows(run_dir):
 
 
 @needs_library
-@pytest.mark.parametrize("method", sorted(LIBRARY_METHODS))
-def test_library_methods_compile_once_repeat_and_resume(method, tmp_path):
+@pytest.mark.parametrize("case", sorted(LIBRARY_METHODS))
+def test_library_methods_compile_once_repeat_and_resume(case, tmp_path):
     from mjx_skills import methods
 
-    args = _args(tmp_path, method, seeds=2)
+    args = _args(tmp_path, case, seeds=2)
+    method = args.method
     lib = methods.get(method).load_aux(args.full_options())
     _, _, epoch_fn, carry0 = train.build(method, args.train, args.env, args.options, lib)
     copy = lambda c: jax.tree.map(jnp.copy, c)
@@ -185,7 +188,7 @@ def test_library_methods_compile_once_repeat_and_resume(method, tmp_path):
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
     assert runs[0][1]["skill_calls"].min() > 0, "the library drove some steps"
 
-    straight = train_run(_args(tmp_path / "a", method, epochs=3, checkpoint_every=1))
-    pieces = train_run(_args(tmp_path / "b", method, epochs=3, checkpoint_every=2), stop_after=2)
+    straight = train_run(_args(tmp_path / "a", case, epochs=3, checkpoint_every=1))
+    pieces = train_run(_args(tmp_path / "b", case, epochs=3, checkpoint_every=2), stop_after=2)
     assert train_run(RunArgs(resume=str(pieces))) == pieces
     assert _rows(straight) == _rows(pieces)

@@ -171,7 +171,8 @@ def test_the_behaviour_commits_for_at_most_w_steps_and_follows_eps(env):
     obs, goal = states(256, held=False)
     state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
     for eps, w in ((1.0, 3), (0.3, 4)):
-        cfg = SearchConfig(eps_start=eps, eps_end=eps, skill_steps=w)
+        # stall_memory 0: the state here never moves, which the stall memory takes for a stall.
+        cfg = SearchConfig(eps_start=eps, eps_end=eps, skill_steps=w, stall_memory=0)
         beh = sl.make_behaviour(
             agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg, DDPGConfig()
         )
@@ -191,6 +192,54 @@ def test_the_behaviour_commits_for_at_most_w_steps_and_follows_eps(env):
             decisions = calls.sum() + (~np.array(driven)).sum()
             share = calls.sum() / decisions
             assert abs(share - eps) < 5 * np.sqrt(eps * (1 - eps) / decisions), share
+
+
+@dataclasses.dataclass(frozen=True)
+class TerminatingLibrary(KnownLibrary):
+    """Every running skill reports `terminated` at once."""
+
+    def terminated(self, skill, obs, goal):
+        return jnp.ones(skill.shape, bool)
+
+
+def test_a_terminated_skill_hands_back_the_decision_at_once(env):
+    """With eps = 1 and w = 5, a skill that terminates is replaced by a new search at the
+    very next step (KnownLibrary's never terminate: a new skill only every 5 steps)."""
+    from mjx_skills import ddpg
+
+    agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
+    obs, goal = states(16, held=False)
+    state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
+    cfg = SearchConfig(eps_start=1.0, eps_end=1.0, skill_steps=5, stall_memory=0)
+    for lib, every in ((TerminatingLibrary(), 1), (KnownLibrary(), 5)):
+        beh = sl.make_behaviour(agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig())
+        step = jax.jit(beh.step)
+        ps, calls = beh.init(jax.random.PRNGKey(0), 16), []
+        for t in range(10):
+            ps, _, record = step(ps, jax.random.PRNGKey(t), state)
+            calls.append(np.asarray(record["skill_calls"]))
+        calls = np.array(calls)
+        np.testing.assert_array_equal(calls[::every], 1)
+        assert calls.sum() == 16 * len(range(0, 10, every))
+
+
+def test_the_oracle_explorer_acts_with_the_scripted_controller_at_rate_eps(env_factory):
+    """explorer = "scripted": at eps = 1 every action is the task's scripted controller's,
+    at eps = 0 none is (the learned policy's noisy action instead)."""
+    from mjx_skills import ddpg
+    from mjx_skills.envs.controllers import make_scripted_policy
+
+    task = env_factory("pick_move")
+    agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
+    obs, goal = states(64, held=False)
+    state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
+    scripted = np.asarray(jax.vmap(make_scripted_policy(task))(obs, goal))
+    for eps in (1.0, 0.0):
+        cfg = SearchConfig(explorer="scripted", eps_start=eps, eps_end=eps)
+        beh = sl.make_scripted_behaviour(agent, jnp.zeros((), jnp.int32), task, cfg, DDPGConfig())
+        _, action, _ = beh.step(beh.init(jax.random.PRNGKey(0), 64), jax.random.PRNGKey(5), state)
+        same = np.all(np.isclose(np.asarray(action), scripted, atol=1e-6), axis=1)
+        assert same.all() if eps == 1.0 else not same.any()
 
 
 def test_epsilon_decays_linearly():
@@ -352,7 +401,8 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
     agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
     obs, goal = states(4, held=False)
     state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
-    cfg = SearchConfig(search_chunk=0.25)  # 2 of the 2 x 4 envs per round
+    # 2 of the 2 x 4 envs per round; no stall memory: the static state would count as stalls.
+    cfg = SearchConfig(search_chunk=0.25, stall_memory=0)
     over_seeds = lambda f: jax.vmap(f, axis_name=rollout.SEED_AXIS)
     # One env of one seed explores: one round, every level of the tree asked once, and the
     # env gets what it would searching alone with its own key.

@@ -191,3 +191,30 @@ def test_cli_forms_parse_to_the_same_run():
     assert sub == old == default
     assert sub.method == "ddpg_her" and sub.options["ddpg"].actor_lr == 3e-4
     assert sub.env.physics == "mjx" and sub.train.task == "transit"
+
+
+def test_held_starts_never_reach_the_evaluation_episodes(monkeypatch):
+    """--env.held-start-prob 1: every training episode starts with the cube in the fingers,
+    no evaluation episode does (the epoch is built with a separate evaluation env)."""
+    seen = {}
+    real = train_mod.make_train_epoch
+
+    def spy(learner, env, cfg, eval_env=None):
+        seen["train"], seen["eval"] = env, eval_env
+        return real(learner, env, cfg, eval_env)
+
+    monkeypatch.setattr(train_mod, "make_train_epoch", spy)
+    cfg = TrainConfig(task="pick_move", envs=2, cycles=1, updates_per_cycle=1, eval_episodes=2,
+                      replay_capacity=1000, progress=False)  # fmt: skip
+    from mjx_skills import methods
+
+    train_mod._build_program(methods.get("ddpg_her"), cfg, EnvConfig(held_start_prob=1.0),
+                         {"ddpg": DDPGConfig()})  # fmt: skip
+    keys = jax.random.split(jax.random.PRNGKey(0), 16)
+    starts = {role: jax.jit(jax.vmap(seen[role].reset))(keys).obs for role in ("train", "eval")}
+    assert np.all(np.asarray(seen["train"].grasped(starts["train"])))
+    from mjx_skills.envs import make
+
+    plain = jax.jit(jax.vmap(make("pick_move").reset))(keys).obs  # the task's own starts
+    np.testing.assert_array_equal(np.asarray(starts["eval"]), np.asarray(plain))
+    assert np.mean(np.asarray(seen["eval"].grasped(starts["eval"]))) < 0.5
