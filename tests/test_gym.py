@@ -87,7 +87,7 @@ def test_the_adapter_and_the_jax_env_agree_on_odd_actions(task, env_factory):
     assert grip_moves[2] < grip_moves[0]  # NaN acts as 0 on its axis
 
 
-def test_scripted_pick_move_succeeds_in_both(env_factory):
+def test_scripted_pick_move_succeeds_and_moves_the_cube_alike_in_both(env_factory):
     key = jax.random.PRNGKey(7)
     jax_env = env_factory("pick_move")
     policy = jax.jit(make_scripted_policy(jax_env))
@@ -99,6 +99,10 @@ def test_scripted_pick_move_succeeds_in_both(env_factory):
         obs, reward, *_ = gym_env.step(np.asarray(policy(obs["observation"], obs["desired_goal"])))
     assert float(state.metrics["success"]) == 1.0
     assert reward == 0.0
+    # The cube moved (picked and carried) the same way in both: its final positions agree.
+    start = np.asarray(jax.jit(jax_env.reset)(key).obs[3:6])
+    assert np.linalg.norm(np.asarray(state.obs[3:6]) - start) > 0.05
+    np.testing.assert_allclose(obs["observation"][3:6], np.asarray(state.obs[3:6]), atol=0.01)
 
 
 VECTOR = """
