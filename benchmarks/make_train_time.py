@@ -4,7 +4,7 @@
 
 Runs the command with OUT in a fresh directory, copies the run's metrics to
 experiments/results/pick_move_ddpg_her_sl_make_train.jsonl and prints one JSON line:
-{"command", "wall_s", "curve"}. README's "Speed" section (benchmarks/speed_report.py)
+{"command", "wall_s", "curve"}. docs/benchmarks.md's "Speed" section (benchmarks/speed_report.py)
 computes from the curve when the 5-epoch rolling mean of eval success first reaches 0.90
 and how long after the command's start that was.
 """

@@ -259,7 +259,7 @@ def main() -> None:
         "--ours-layer-norm",
         action=argparse.BooleanOptionalAction,
         default=False,
-        help="LayerNorm in our best-settings run (off: learned transit faster, see README)",
+        help="LayerNorm in our best-settings run (off: learned transit faster, see docs/methods.md)",
     )
     parser.add_argument("--plot", default="benchmarks/peer_sb3.png")
     args = parser.parse_args()

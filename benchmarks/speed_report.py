@@ -100,7 +100,7 @@ def sweeps() -> list[str]:
                    f"{c['seeds']} seeds, `--jobs {c['jobs']}`; `python benchmarks/confirm_estimate.py`): "
                    f"estimated {c['estimate_s'] / 60:.0f} min, ran {c['wall_s'] / 60:.0f} min "
                    f"({c['error']:+.0%}).")  # fmt: skip
-        out += ["", *learning(c["name"]), "", *first_epochs(c["name"])]
+        out += ["", *first_epochs(c["name"])]
     return out
 
 
@@ -111,20 +111,6 @@ def curve_summary(rows: list[dict]) -> tuple[float, int | None]:
 
     scores = stats.scores_from_rows(rows)
     return float(scores[:, -stats.LAST :].mean()), stats.first_reaching(scores.mean(axis=0), 0.9)
-
-
-def learning(name: str) -> list[str]:
-    """The confirming row's learning."""
-    curves = ROOT / "experiments" / "results" / "archive"
-    rows = [json.loads(line) for line in (curves / f"{name}.jsonl").open()]
-    parts = []
-    for method, label in METHODS.items():
-        last5, hit = curve_summary([r for r in rows if r["method"] == method])
-        parts.append(f"{label} {last5:.2f}" + (f" (0.90 first at epoch {hit})" if hit else ""))
-    seeds = len({r["seed"] for r in rows})
-    return [f"That row's learning ({seeds} seeds, `experiments/results/archive/{name}.jsonl`, "
-            f"mean eval success of the last 5 epochs; 0.90: the 5-epoch rolling mean of the "
-            f"seeds' mean): {'; '.join(parts)}."]  # fmt: skip
 
 
 def first_epochs(name: str) -> list[str]:

@@ -59,7 +59,7 @@ class DDPGConfig:
     """LayerNorm after each hidden layer (the original code uses it)."""
     actor_lr: float = 1e-3
     """Adam learning rate of the actor. Table 6.1 says 1e-4; 1e-3 (as the HER baselines)
-    reached 95 % on transit in half the epochs here (README, "Hyperparameters")."""
+    reached 95 % on transit in half the epochs here (docs/methods.md, "Hyperparameters")."""
     critic_lr: float = 1e-3
     """Adam learning rate of the critic (Table 6.1)."""
     gamma: float = 0.98
@@ -215,7 +215,7 @@ class TrainConfig:
 class LibraryConfig:
     """Building the skill library: skill training budgets, data collection, model fits.
 
-    Defaults were chosen by measurement on the 2-core CPU (README, "Skill library"); the
+    Defaults were chosen by measurement on the 2-core CPU (docs/skill_library.md); the
     thesis's values are given where ours differ."""
 
     transit_epochs: int = 20
@@ -310,7 +310,7 @@ class SearchConfig:
     level (`lookahead_next`), or 'goal': each edge's skill ends exactly at its goal (no
     network; an edge the classifier keeps is one expected to succeed, and a successful run
     ends within the success threshold of its goal). 'goal' skips the coarse model on 125 of
-    the 155 edges (README, "Search speed")."""
+    the 155 edges (docs/methods.md, "Search speed")."""
     leaf_value: Literal["distance", "reward"] = "distance"
     """Value of a path's last state: minus its distance to the task goal in units of the
     task's success threshold (the original code) or the task's sparse reward (the text)."""

@@ -98,7 +98,7 @@ PRESETS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
 }  # fmt: skip
 """Named option sets by method and group, applied over the defaults (explicit flags win).
 'thesis': each method as the thesis formulates it, where our defaults depart from it by
-measurement (the departures and their measurements: docs/results.md, "Presets"). DDPG+HER
+measurement (field by field, with what they change: docs/results.md, "Our defaults against the thesis's formulation"). DDPG+HER
 has no departure of formulation (its hyperparameters: `DDPGConfig`)."""
 
 

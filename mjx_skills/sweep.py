@@ -13,7 +13,7 @@ An experiment is a small TOML file in experiments/ (`experiments/NAME.toml`, rea
 cell is one (task, method, library) training run with all its seeds in one vmapped
 program (`runner.train_run`). Locally `--jobs N` cells run at once, each in its own worker
 process (`mjx_skills.workers`; default one cell per core, `--pin` to pin each to its own
-cores; README "Speed" has the measured gain); results are the same bits whatever N is.
+cores; docs/benchmarks.md "Speed" has the measured gain); results are the same bits whatever N is.
 With `--ray ADDRESS` or `--ray local` each cell is a Ray task (the `ray` extra).
 `--estimate` prints the expected wall time from the measured epoch costs
 (`mjx_skills.cost`) without training.

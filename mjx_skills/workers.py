@@ -8,7 +8,7 @@ is started fresh (`spawn`: JAX must not be forked after it started its threads).
 it imports JAX, so that two cells never share a core, and the native physics backend sizes
 its thread pool from the cores the process may use (`usable_cores`). Unpinned is the
 default, by measurement: a pinned worker keeps one core when the other has nothing left
-to run, and sweeps end with such a tail (README, "Speed": `benchmarks/sweep_parallel.py`
+to run, and sweeps end with such a tail (docs/benchmarks.md, "Speed": `benchmarks/sweep_parallel.py`
 times both).
 """
 

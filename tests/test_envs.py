@@ -79,7 +79,7 @@ def test_unknown_override_is_rejected():
 def test_a_cube_off_the_table_lands_on_the_floor(scene):
     """A cube pushed off the table must stop on the floor: one that fell forever put
     positions of hundreds of metres into the observation normaliser and collapsed
-    learned policies (README, "DDPG+HER+SL")."""
+    learned policies (docs/simulation.md)."""
     model = load_model(scene, EnvConfig())
     data = mujoco.MjData(model)
     joint = model.joint("object")

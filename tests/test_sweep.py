@@ -203,9 +203,9 @@ def test_the_table_experiment_builds_one_library_per_data_size(tmp_path):
 
 
 def test_a_library_experiment_carries_its_library_overrides():
-    anchored = load_experiment("table5_1_anchor")
+    anchored = load_experiment("table5_1_thesis")
     cells = anchored.cells()
-    assert [c.name for c in cells] == [f"library-n{n}-anchor-goal" for n in anchored.samples]
+    assert [c.name for c in cells] == [f"library-n{n}-anchor-start" for n in anchored.samples]
     assert not {c.name for c in cells} & {c.name for c in load_experiment("table5_1").cells()}
     with pytest.raises(ValueError, match="anchor"):
         Experiment(name="t", description="", kind="library", samples=(100,),
