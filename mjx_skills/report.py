@@ -256,23 +256,32 @@ def figure(r: Results, experiment: str, out: Path, draw: bool = True) -> Path | 
 
     tasks = list(dict.fromkeys(c.task for c, _ in r.cells[experiment]))
     fig, axes = plt.subplots(1, len(tasks), figsize=(4.2 * len(tasks), 3.4), squeeze=False)
+    libraries = ("SL1", "SL2", "SL3")
     for ax, task in zip(axes[0], tasks, strict=True):
-        pairs = [(c, s) for c, s in done if c.task == task]
+        pairs = [((c, ""), s) for c, s in done if c.task == task]
         if experiment == "thesis_preset":
-            pairs = [x for c, s in pairs for x in (((c, "default"), r.get("fig6_3", task, c.method)),
-                                                  ((c, "thesis"), s)) if x[1] is not None]  # fmt: skip
-        for key, s in pairs:
-            cell, tag = key if isinstance(key, tuple) else (key, "")
+            pairs = [x for c, s in pairs for x in (((c[0], "default"), r.get("fig6_3", task, c[0].method)),
+                                                  ((c[0], "thesis"), s)) if x[1] is not None]  # fmt: skip
+        for (cell, tag), s in pairs:
             label = LABEL[cell.method] + (f" {cell.library}" if experiment == "fig6_4" else "")
             label += f" ({tag})" if tag else ""
+            index = (libraries.index(cell.library) if experiment == "fig6_4"
+                     else list(LABEL).index(cell.method))  # fmt: skip
             x = np.arange(1, s.epochs + 1)
-            (line,) = ax.plot(x, s.curve, label=label, lw=1.4)
-            ax.fill_between(x, s.curve_low, s.curve_high, color=line.get_color(), alpha=0.2, lw=0)
+            ax.plot(x, s.curve, label=label, lw=1.4, color=f"C{index}",
+                    ls="--" if tag == "thesis" else "-")  # fmt: skip
+            ax.fill_between(x, s.curve_low, s.curve_high, color=f"C{index}", alpha=0.2, lw=0)
         ax.set(title=task, xlabel="epoch (16 episodes)", ylim=(-0.02, 1.02))
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("eval success (20 episodes)")
-    axes[0][-1].legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
+    handles = {}
+    for ax in axes[0]:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(label, handle)
+    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=len(handles),
+               fontsize=8, frameon=False)  # fmt: skip
+    fig.subplots_adjust(bottom=0.25)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
     plt.close(fig)
