@@ -58,19 +58,17 @@ class DDPGConfig:
     layer_norm: bool = True
     """LayerNorm after each hidden layer (the original code uses it)."""
     actor_lr: float = 1e-3
-    """Adam learning rate of the actor. Table 6.1 says 1e-4; 1e-3 (as the HER baselines)
-    reached 95 % on transit in half the epochs here (docs/methods.md, "Hyperparameters")."""
+    """Adam learning rate of the actor (Table 6.1: 1e-4; 1e-3, as the HER baselines, learned
+    transit faster here: docs/methods.md, "Hyperparameters")."""
     critic_lr: float = 1e-3
     """Adam learning rate of the critic (Table 6.1)."""
     gamma: float = 0.98
     """Discount factor (Table 6.1)."""
     tau: float = 0.05
-    """Soft target update rate, applied after every gradient step: target <- (1 - tau)
-    target + tau online. Table 6.1 says 1e-3, with 8 workers x 800 updates per epoch; at our
-    400 updates per epoch targets that slow left transit at 15 % after 20 epochs, 0.05 at
-    100 % (docs/methods.md, "Hyperparameters"). The value is the HER baselines' polyak 0.95,
-    but they apply it once per cycle of 40 gradient steps, so our targets follow the online
-    networks much faster per gradient step (a per-cycle update is not measured here)."""
+    """Soft target update after every gradient step: target <- (1 - tau) target + tau online.
+    Table 6.1's 1e-3 assumes 8 workers x 800 updates per epoch, too slow at our 400
+    (docs/methods.md). The HER baselines use this value (polyak 0.95) once per 40-step
+    cycle; here it applies at every step, so the targets follow the online networks faster."""
     batch_size: int = 128
     """Transitions per gradient step (Table 6.1)."""
     noise_sigma: float = 0.2
@@ -213,10 +211,8 @@ class TrainConfig:
 
 @dataclasses.dataclass(frozen=True)
 class LibraryConfig:
-    """Building the skill library: skill training budgets, data collection, model fits.
-
-    Defaults were chosen by measurement on the 2-core CPU (docs/skill_library.md); the
-    thesis's values are given where ours differ."""
+    """Building the skill library: skill training budgets, data collection, model fits
+    (docs/skill_library.md); the thesis's values are given where ours differ."""
 
     transit_epochs: int = 20
     """DDPG+HER epochs of the transit skill."""
@@ -242,15 +238,11 @@ class LibraryConfig:
     model_lr: float = 1e-3
     """Adam learning rate of the coarse model (thesis: 1e-5, for 3 x 1000 units)."""
     anchor: Literal["start", "goal"] = "goal"
-    """What the coarse model's prediction and a recalled memory are measured from. 'start'
-    (the thesis): the model predicts the change from the start state, memory returns the
-    stored run's terminal state as it was. 'goal': the positions a skill moves (grip and
-    cube) are predicted, and recalled, relative to the skill's goal - a successful run ends
-    within the success threshold of it wherever the goal lies - and the neighbour's offset
-    from its own goal is carried over to the query's. Measured at 10k runs per skill
-    (docs/results.md, Table 5.1): memory 4.36 / 2.11 / 5.46 cm -> 1.30 / 1.30 / 1.20, model
-    2.28 / 0.86 / 3.11 -> 0.88 / 0.82 / 0.85 (transit / grasp / transfer). Default 'goal'
-    (the committed library); the thesis preset's library is 'start'."""
+    """What the coarse model's prediction and a recalled memory are measured from: 'start'
+    (the thesis: the change from the start state; memory returns the stored terminal state)
+    or 'goal' (the grip and cube positions relative to the skill's goal, where a successful
+    run ends within the success threshold; a recalled neighbour's offset from its own goal
+    is carried over to the query's). Table 5.1 for both: docs/results.md."""
     classifier_hidden: tuple[int, ...] = (50, 10)
     """Hidden widths of the success classifier (thesis: 50, 10)."""
     classifier_lr: float = 1e-3
@@ -308,9 +300,7 @@ class SearchConfig:
     leaf_state: Literal["predicted", "goal"] = "predicted"
     """The last level's states, which only feed the leaf value: predicted like every other
     level (`lookahead_next`), or 'goal': each edge's skill ends exactly at its goal (no
-    network; an edge the classifier keeps is one expected to succeed, and a successful run
-    ends within the success threshold of its goal). 'goal' skips the coarse model on 125 of
-    the 155 edges (docs/methods.md, "Search speed")."""
+    network; skips the coarse model on 125 of the 155 edges: docs/methods.md)."""
     leaf_value: Literal["distance", "reward"] = "distance"
     """Value of a path's last state: minus its distance to the task goal in units of the
     task's success threshold (the original code) or the task's sparse reward (the text)."""
@@ -338,11 +328,9 @@ class SearchConfig:
     stall_radius: float = 0.03
     """... and prunes edges whose straight path passes within this (m) of it."""
     search_chunk: float = 0.25
-    """Envs searched at once, as a share of all envs of all seeds (rounded up, at least
-    one): the envs that decide to search are searched in chunks of this size, one after
-    another, so a step costs the search of the envs that search, not of the whole batch.
-    0.25 suits about one decision in four env steps at eps = 1 (measured:
-    benchmarks/epoch_cost.py); 1.0 searches every env's tree at once whenever one searches."""
+    """Envs searched at once, as a share of all envs of all seeds (rounded up, at least one):
+    the deciding envs are searched in chunks of this size, one after another, so a step costs
+    the search of the envs that search (benchmarks/epoch_cost.py); 1.0: all at once."""
     skill_steps: int = 10
     """w: a searched skill runs until it terminates or for this many steps (thesis: 10)."""
     eps_start: float = 1.0
@@ -393,17 +381,14 @@ class PASConfig:
     critic: Literal["joint", "per_skill"] = "per_skill"
     """'per_skill': Q(s, g, k, goal_k) on the chosen skill's goal alone (the thesis's outlook,
     MP-DQN; `pdqn`); 'joint': one critic over every skill's score and parameters, the actor
-    bounded by inverting gradients (the thesis, after Hausknecht & Stone). Measured on
-    take_out (MPAS, 2 seeds, mean eval success of epochs 26-30): per_skill + terminal 0.90,
-    joint + terminal 0.28, per_skill alone 0.01, joint alone 0.05."""
+    bounded by inverting gradients (the thesis, after Hausknecht & Stone; `--preset thesis`,
+    compared in docs/results.md)."""
     terminal_at_goal: bool = True
     """A meta transition that reaches the goal ends the meta-level return (no bootstrap):
-    reaching g is worth 0 at once instead of through a chain of "stay" meta steps. (The
-    thesis does not say; off, neither critic learned take_out in 30 epochs.)"""
+    reaching g is worth 0 at once, not through a chain of "stay" meta steps (thesis: silent)."""
     updates_per_cycle: int = 40
-    """Gradient steps of the meta-controller per cycle. A cycle's 4 episodes hold about 35
-    meta transitions (measured on take_out), not DDPG+HER's 200 transitions: 40 steps (the HER code's per-cycle
-    count) instead of the trainer's 100."""
+    """Gradient steps of the meta-controller per cycle: a cycle holds tens of meta transitions,
+    not DDPG+HER's 200, so the HER code's 40 per cycle instead of the trainer's 100."""
 
     def __post_init__(self) -> None:
         _check_numbers(self)

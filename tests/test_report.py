@@ -4,7 +4,7 @@ docs/results.md is exactly what the committed data gives."""
 import numpy as np
 import pytest
 
-from mjx_skills import report, stats
+from mjx_skills import claims, report, stats
 
 
 def test_first_reaching_uses_the_rolling_mean_not_a_single_epoch():
@@ -54,13 +54,13 @@ def _summary(last, auc=(0.5, 0.4, 0.6)):
 
 def test_verdict_rules():
     baseline = _summary((0.02, 0.0, 0.05))
-    assert report.fails(baseline) and not report.learns(baseline)
-    assert report.learns(_summary((0.6, 0.3, 0.9)), baseline)
-    assert not report.learns(_summary((0.6, 0.04, 0.9)), baseline)  # overlaps the baseline
-    assert not report.learns(_summary((0.45, 0.3, 0.6)))
+    assert claims.fails(baseline) and not claims.learns(baseline)
+    assert claims.learns(_summary((0.6, 0.3, 0.9)), baseline)
+    assert not claims.learns(_summary((0.6, 0.04, 0.9)), baseline)  # overlaps the baseline
+    assert not claims.learns(_summary((0.45, 0.3, 0.6)))
     fast, slow = _summary((1, 1, 1), (0.7, 0.65, 0.75)), _summary((1, 1, 1), (0.6, 0.5, 0.66))
-    assert report.above(fast, slow) is False  # 0.65 < 0.66: the intervals overlap
-    assert report.above(fast, _summary((1, 1, 1), (0.6, 0.5, 0.64)))
+    assert claims.above(fast, slow) is False  # 0.65 < 0.66: the intervals overlap
+    assert claims.above(fast, _summary((1, 1, 1), (0.6, 0.5, 0.64)))
 
 
 def test_the_committed_report_is_what_the_committed_data_gives():
