@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from mjx_skills import cells, stats
-from mjx_skills.claims import FAILS, LABEL, LEARNS, ci, claims, reach
+from mjx_skills.claims import FAILS, LABEL, LEARNS, above, ci, claims, reach
 from mjx_skills.experiments import Cell, load_experiment
 from mjx_skills.logging import read_metrics
 
@@ -131,13 +131,23 @@ CELL_HEADER = ["task", "method", "seeds x epochs", "last 5 epochs [95 % CI]", "0
                "mean over epochs [95 % CI]", "min"]  # fmt: skip
 
 
+def compare(default, thesis, field: str) -> str:
+    """Which of the two is higher in `field` by the interval rule ('overlap' if neither)."""
+    if default is None or thesis is None:
+        return ""
+    return ("defaults" if above(default, thesis, field) else
+            "thesis" if above(thesis, default, field) else "overlap")  # fmt: skip
+
+
 def preset_rows(r: Results) -> list[list[str]]:
     rows = []
     for cell, thesis in r.cells["thesis_preset"]:
         default = r.get("fig6_3", cell.task, cell.method)
         for label, s in (("default", default), ("thesis preset", thesis)):
             rows.append([cell.task, f"{LABEL[cell.method]}, {label}",
-                         *([ci(s.last), reach(s.reach_90), ci(s.auc)] if s else ["not run yet", "", ""])])  # fmt: skip
+                         *([ci(s.last), reach(s.reach_90), ci(s.auc)] if s else ["not run yet", "", ""]),
+                         *([compare(default, thesis, "last"), compare(default, thesis, "auc")]
+                           if label == "default" else ["", ""])])  # fmt: skip
     return rows
 
 
@@ -234,8 +244,12 @@ def render(r: Results, draw: bool = True) -> str:
             lines += [f"![{TITLES[experiment]}](figures/{experiment}.png)", ""]
         if experiment == "thesis_preset":
             lines += [*presets(), "", *table(["task", "method", "last 5 epochs [95 % CI]",
-                                              "0.9 at epoch", "mean over epochs [95 % CI]"],
+                                              "0.9 at epoch", "mean over epochs [95 % CI]",
+                                              "higher at the end", "faster"],
                                              preset_rows(r))]  # fmt: skip
+            lines += ["", "'higher at the end' / 'faster': whose interval of the last-5 mean / "
+                      "of the mean over epochs lies entirely above the other's ('overlap': "
+                      "neither's)."]  # fmt: skip
         else:
             lines += table(CELL_HEADER, cell_rows(r, experiment))
     return "\n".join(lines) + "\n"
