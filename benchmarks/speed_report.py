@@ -160,10 +160,19 @@ def make_train() -> list[str]:
         return [f"**`make train TASK=pick_move`**: the 5-epoch rolling mean never reached 0.90 "
                 f"in {len(wall)} epochs (`{run['curve']}`)."]  # fmt: skip
     start = run["wall_s"] - wall[max(wall)]  # process start, library load, first trace
+    fresh = (
+        f"; the final policy succeeds on {run['fresh_success']:.2f} of 100 fresh episodes "
+        f"(`python -m mjx_skills.eval RUN_DIR --episodes 100`)"
+        if "fresh_success" in run
+        else ""
+    )
+    busy = (f" The machine was not idle (1-minute load average {run['load_before']:.1f} at the "
+            f"start: other runs shared its 2 cores), so the times are upper bounds."
+            if run.get("load_before", 0) > 0.5 else "")  # fmt: skip
     return [f"**`make train TASK=pick_move`** (one seed, `{run['curve']}`): the 5-epoch rolling "
             f"mean of eval success first reaches 0.90 at epoch {hit}, **{(start + wall[hit]) / 60:.1f} "
             f"min** after the command started (compile included); the 100 epochs took "
-            f"{run['wall_s'] / 60:.1f} min, last 5 epochs {last5:.2f}."]  # fmt: skip
+            f"{run['wall_s'] / 60:.1f} min, last 5 epochs {last5:.2f}{fresh}.{busy}"]  # fmt: skip
 
 
 def section() -> str:
