@@ -31,6 +31,9 @@ class Method:
     needs_library: bool = False
     load_aux: Callable[[dict[str, Any]], Any] | None = None
     """load_aux(options) -> the read-only input of the jitted epoch (the skill library)."""
+    unread: dict[str, str] = dataclasses.field(default_factory=dict)
+    """Options on this method's command line that it does not read ("group.field", "train"
+    for the un-prefixed ones) -> the option it reads instead. Setting one is an error."""
 
 
 def load_library(group: SearchConfig | PASConfig) -> Any:
@@ -40,6 +43,31 @@ def load_library(group: SearchConfig | PASConfig) -> Any:
     full, _ = library.load(group.library_dir)
     library.skill_envs(full.names)  # built now, not first inside a traced function
     return library.subset(full, group.library)
+
+
+PAS_UNREAD = {
+    "train.updates_per_cycle": "--pas.updates-per-cycle",
+    "ddpg.relabel_prob": "--pas.relabel-prob",
+    "ddpg.her_strategy": "--pas.hindsight",
+}
+"""PAS / MPAS train the meta-controller with their own update count and hindsight."""
+
+
+def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
+    """ValueError naming any option `method` does not read that differs from its default."""
+    from mjx_skills.config import TrainConfig
+
+    spec = get(method)
+    groups = {"train": (train, TrainConfig())} | {
+        g: (options[g], spec.options[g]) for g in options if g in spec.options
+    }
+    for path, instead in spec.unread.items():
+        group, field = path.split(".")
+        given, default = groups[group]
+        if getattr(given, field) != getattr(default, field):
+            flag = ("--" if group == "train" else f"--{group}.") + field.replace("_", "-")
+            raise ValueError(f"{method} does not read {flag} (it reads {instead} instead); "
+                             f"leave {flag} at its default {getattr(default, field)!r}")  # fmt: skip
 
 
 METHODS: dict[str, Method] = {
@@ -66,6 +94,7 @@ METHODS: dict[str, Method] = {
             make_learner=make_pas,
             needs_library=True,
             load_aux=lambda options: load_library(options["pas"]),
+            unread=PAS_UNREAD,
         )
         for name, description in (
             (

@@ -157,7 +157,10 @@ LIBRARY_METHODS = {
 
 def _args(tmp_path, case, **overrides):
     method, options = LIBRARY_METHODS[case]
-    return RunArgs(train=TrainConfig(**{**TINY, "out": str(tmp_path), **overrides}),
+    train = {**TINY, "out": str(tmp_path), **overrides}
+    if method != "ddpg_her_sl":  # PAS / MPAS take --pas.updates-per-cycle (set above)
+        train.pop("updates_per_cycle")
+    return RunArgs(train=TrainConfig(**train),
                    method=method, env=EnvConfig(episode_length=12), options=options)  # fmt: skip
 
 
@@ -192,3 +195,18 @@ def test_library_methods_compile_once_repeat_and_resume(case, tmp_path):
     pieces = train_run(_args(tmp_path / "b", case, epochs=3, checkpoint_every=2), stop_after=2)
     assert train_run(RunArgs(resume=str(pieces))) == pieces
     assert _rows(straight) == _rows(pieces)
+
+
+@pytest.mark.parametrize(("argv", "flag"), [
+    (["mpas", "--updates-per-cycle", "50"], "--pas.updates-per-cycle"),
+    (["pas", "--ddpg.relabel-prob", "0.5"], "--pas.relabel-prob"),
+    (["mpas", "--ddpg.her-strategy", "final"], "--pas.hindsight"),
+])  # fmt: skip
+def test_an_option_the_method_does_not_read_is_refused(argv, flag, tmp_path):
+    """PAS / MPAS wrote these to config.json and did nothing with them."""
+    from mjx_skills import cli
+
+    with pytest.raises(SystemExit, match=f"does not read .*{flag}"):
+        cli.main([*argv, "--task", "take_out", "--out", str(tmp_path)])
+    assert not any(tmp_path.iterdir())
+    cli.parse(["mpas", "--pas.updates-per-cycle", "50"])  # what it does read is fine
