@@ -24,12 +24,10 @@ VOLATILE = {("train", "out"), ("train", "progress"), ("train", "checkpoint_every
 
 
 def run_config(args) -> dict[str, Any]:
-    """A `runner.RunArgs` as config.json holds it (version excluded)."""
-    import dataclasses
+    """A `runner.RunArgs` as config.json reads back (tuples as lists; version excluded)."""
+    from mjx_skills.runner import config_dict
 
-    groups = {name: dataclasses.asdict(opt) for name, opt in args.full_options().items()}
-    return json.loads(json.dumps({"method": args.method, "train": dataclasses.asdict(args.train),
-                                  "env": dataclasses.asdict(args.env), "options": groups}))  # fmt: skip
+    return json.loads(json.dumps(config_dict(args)))
 
 
 def _results_part(config: dict[str, Any]) -> dict[str, Any]:

@@ -100,7 +100,6 @@ class DDPGConfig:
             _check(getattr(self, name) > 0, name, "must be > 0")
         _check(0.0 < self.gamma < 1.0, "gamma", "must lie in (0, 1)")
         _check(0.0 < self.tau <= 1.0, "tau", "must lie in (0, 1]")
-        _check(self.noise_sigma >= 0, "noise_sigma", "must be >= 0")
         _check(0.0 <= self.random_eps <= 1.0, "random_eps", "must lie in [0, 1]")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         _check(self.norm_clip > 0, "norm_clip", "must be > 0")
@@ -163,10 +162,6 @@ class EnvConfig:
         _check(self.grasp_settle_substeps >= 1, "grasp_settle_substeps", "must be >= 1")
         _check(self.action_scale > 0, "action_scale", "must be > 0")
         _check(self.max_qvel > 0, "max_qvel", "must be > 0")
-        _check(self.posture_stiffness >= 0, "posture_stiffness", "must be >= 0")
-        _check(self.native_threads >= 0, "native_threads", "must be >= 0")
-        _check(self.episode_length >= 0, "episode_length", "must be >= 0 (0 = task default)")
-        _check(self.distance_threshold >= 0, "distance_threshold", "must be >= 0 (0 = default)")
         _check(0.0 <= self.held_start_prob <= 1.0, "held_start_prob", "must lie in [0, 1]")
 
 
@@ -350,9 +345,6 @@ class SearchConfig:
                "need 0 <= eps_end <= eps_start <= 1")  # fmt: skip
         lo, hi = self.transit_height
         _check(0.0 <= lo <= hi, "transit_height", "need 0 <= low <= high")
-        for name in ("object_goal_noise", "transfer_goal_noise", "stall_memory", "stall_step",
-                     "stall_ahead", "stall_radius"):  # fmt: skip
-            _check(getattr(self, name) >= 0, name, "must be >= 0")
         _check(0.0 <= self.waypoint_share <= 1.0, "waypoint_share", "must lie in [0, 1]")
         _check(0.0 < self.search_chunk <= 1.0, "search_chunk", "must lie in (0, 1]")
         _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")

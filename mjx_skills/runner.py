@@ -64,11 +64,15 @@ def new_run_dir(args: RunArgs) -> Path:
             run_dir = base.with_name(f"{base.name}-{n}")
 
 
-def save_config(run_dir: Path, args: RunArgs) -> None:
+def config_dict(args: RunArgs) -> dict[str, Any]:
+    """What defines a run, as config.json holds it (without the package version)."""
     groups = {name: dataclasses.asdict(opt) for name, opt in args.full_options().items()}
-    raw = {"method": args.method, "version": __version__,
-           "train": dataclasses.asdict(args.train), "env": dataclasses.asdict(args.env),
-           "options": groups}  # fmt: skip
+    return {"method": args.method, "train": dataclasses.asdict(args.train),
+            "env": dataclasses.asdict(args.env), "options": groups}  # fmt: skip
+
+
+def save_config(run_dir: Path, args: RunArgs) -> None:
+    raw = {**config_dict(args), "version": __version__}
     (run_dir / "config.json").write_text(json.dumps(raw, indent=2))
 
 
