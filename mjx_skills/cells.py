@@ -13,6 +13,7 @@ the same name and another definition is refused with the fields that differ.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 from pathlib import Path
@@ -55,18 +56,38 @@ def definition(cell) -> dict[str, Any]:
     return {"config": config, "library": library_provenance(config)}
 
 
-def differences(a: Any, b: Any, path: str = "") -> list[str]:
-    """Dotted paths where two JSON-like values differ, with both values."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        return [d for k in sorted(set(a) | set(b))
-                for d in differences(a.get(k), b.get(k), f"{path}.{k}" if path else k)]  # fmt: skip
-    return [] if a == b else [f"{path}: {a!r} != {b!r}"]
+def defaults(method: str) -> dict[str, Any]:
+    """The config of a run of `method` with every field at its default, as JSON reads back."""
+    from mjx_skills import methods
+    from mjx_skills.config import EnvConfig, TrainConfig
+
+    groups = {name: dataclasses.asdict(opt) for name, opt in methods.get(method).options.items()}
+    raw = {"train": dataclasses.asdict(TrainConfig()), "env": dataclasses.asdict(EnvConfig()),
+           "options": groups}  # fmt: skip
+    return json.loads(json.dumps(raw))
+
+
+def differences(old: Any, new: Any, path: str = "", default: Any = None) -> list[str]:
+    """Dotted paths where two JSON-like values differ, with both values. A key that `old`
+    lacks and `new` holds at its value in `default` (a config field added since `old` was
+    written, at the default that keeps the earlier behaviour) is no difference."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        default = default if isinstance(default, dict) else {}
+        return [d for k in sorted(set(old) | set(new))
+                if k in old or k not in default or new.get(k) != default[k]
+                for d in differences(old.get(k), new.get(k), f"{path}.{k}" if path else k,
+                                     default.get(k))]  # fmt: skip
+    return [] if old == new else [f"{path}: {old!r} != {new!r}"]
+
+
+def _config_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
+    return differences(old, new, default=defaults(new["method"]))
 
 
 def run_differences(run_dir: Path, cell) -> list[str]:
     """How a run directory's config.json differs from what `cell` would write ([] = same)."""
     raw = json.loads((Path(run_dir) / "config.json").read_text())
-    return differences(_results_part(raw), definition(cell)["config"])
+    return _config_differences(_results_part(raw), definition(cell)["config"])
 
 
 def stored(cell, store: Path = STORE) -> Path | None:
@@ -75,7 +96,9 @@ def stored(cell, store: Path = STORE) -> Path | None:
     where = store / cell.name
     if not (where / "definition.json").exists():
         return None
-    diff = differences(json.loads((where / "definition.json").read_text()), definition(cell))
+    old, new = json.loads((where / "definition.json").read_text()), definition(cell)
+    diff = _config_differences(old["config"], new["config"])
+    diff += differences(old["library"], new["library"], "library")
     if diff:
         raise ValueError(
             f"the stored cell {where} was made by another definition ({'; '.join(diff[:6])}); "

@@ -153,6 +153,11 @@ class EnvConfig:
     it lies (for tasks whose goal is the cube's position). The original code trains grasp
     with 0.5 (the HER paper's trick for pick-and-place); evaluation never does."""
 
+    single_goal: bool = False
+    """Every episode has one desired goal, the mean of the task's goal distribution, instead
+    of a goal drawn per episode: the single-goal formulation of the thesis's PAS baseline,
+    after its reference [21] (docs/results.md). Off: the thesis's tasks."""
+
     def __post_init__(self) -> None:
         _check_numbers(self)
         _check(self.physics in PHYSICS, "physics", f"must be one of {', '.join(PHYSICS)}")

@@ -3,7 +3,9 @@
 A file holds a description, `tasks`, `methods`, optional `libraries` (SL1 / SL2 / SL3, for
 the library methods), `seeds`, `epochs`, optional `[train]` overrides (TrainConfig fields)
 and `[options.METHOD.GROUP]` overrides (e.g. `[options.mpas.pas] critic = "joint"`), applied
-over the optional `preset` (`mjx_skills.methods.PRESETS`, e.g. `preset = "thesis"`):
+over the optional `preset` (`mjx_skills.methods.PRESETS`, e.g. `preset = "thesis"`), optional
+`[env]` overrides (EnvConfig fields) and a `label` that the cells' names end with (cells
+that change a setting keep apart from the default's, which the store would otherwise refuse):
 
     description = "Fig. 6.5: container with a wall"
     tasks = ["container_wall"]
@@ -48,6 +50,10 @@ class Cell:
     """A library cell: build a skill library from this many runs per skill (Table 5.1)."""
     preset: str = "default"
     """The method's option preset (`methods.PRESETS`), under `options`."""
+    env: tuple[tuple[str, Any], ...] = ()
+    """EnvConfig overrides as (field, value) pairs."""
+    label: str = ""
+    """Appended to the name: a variant of a cell (e.g. 'single_goal')."""
 
     @property
     def name(self) -> str:
@@ -56,11 +62,12 @@ class Cell:
             return f"library-n{self.samples}" + "".join(f"-{k}-{v}" for k, v in fields)
         lib = f"-{self.library}" if self.library else ""
         preset = "" if self.preset == "default" else f"-{self.preset}"
-        return f"{self.task}-{self.method}{lib}{preset}-s{self.seeds}-e{self.epochs}"
+        label = f"-{self.label}" if self.label else ""
+        return f"{self.task}-{self.method}{lib}{preset}{label}-s{self.seeds}-e{self.epochs}"
 
     def run_args(self, out: str, progress: bool = True):
         from mjx_skills import methods
-        from mjx_skills.config import TrainConfig
+        from mjx_skills.config import EnvConfig, TrainConfig
         from mjx_skills.runner import RunArgs
 
         spec = methods.get(self.method)
@@ -71,7 +78,8 @@ class Cell:
         options = {g: dataclasses.replace(base[g], **groups.get(g, {})) for g in spec.options}
         train = TrainConfig(task=self.task, epochs=self.epochs, seeds=self.seeds, out=out,
                             progress=progress, **dict(self.train))  # fmt: skip
-        return RunArgs(train=train, method=self.method, options=options)
+        return RunArgs(train=train, method=self.method, env=EnvConfig(**dict(self.env)),
+                       options=options)  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,10 +100,14 @@ class Experiment:
     """A library experiment's LibraryConfig overrides (besides `samples`)."""
     preset: str = "default"
     """Option preset of every method (`methods.PRESETS`); `options` apply over it."""
+    env: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """EnvConfig overrides of every cell."""
+    label: str = ""
+    """Ends every cell's name (a variant of the default cells)."""
 
     def __post_init__(self) -> None:
         from mjx_skills import methods
-        from mjx_skills.config import TrainConfig
+        from mjx_skills.config import EnvConfig, TrainConfig
         from mjx_skills.envs.registry import check_name
         from mjx_skills.library import library_skills
 
@@ -123,6 +135,13 @@ class Experiment:
             library_skills(lib)
         if self.seeds < 1 or self.epochs < 1:
             raise ValueError(f"experiment {self.name}: seeds and epochs must be >= 1")
+        fields = {f.name for f in dataclasses.fields(EnvConfig)}
+        if set(self.env) - fields:
+            raise ValueError(f"experiment {self.name}: unknown [env] field(s) "
+                             f"{sorted(set(self.env) - fields)}; valid: {sorted(fields)}")  # fmt: skip
+        EnvConfig(**self.env)  # bad values name their field here
+        if self.label and not self.label.replace("_", "").isalnum():
+            raise ValueError(f"experiment {self.name}: label {self.label!r}: letters, digits, _")
         valid = {f.name for f in dataclasses.fields(TrainConfig)} - {"task", "epochs", "seeds"}
         if set(self.train) - valid:
             raise ValueError(f"experiment {self.name}: unknown [train] field(s) "
@@ -151,7 +170,8 @@ class Experiment:
                 opts = tuple((g, tuple(sorted(f.items())))
                              for g, f in sorted(self.options.get(method, {}).items()))  # fmt: skip
                 out.append(Cell(task, method, lib, self.seeds, self.epochs,
-                                tuple(sorted(self.train.items())), opts, preset=self.preset))  # fmt: skip
+                                tuple(sorted(self.train.items())), opts, preset=self.preset,
+                                env=tuple(sorted(self.env.items())), label=self.label))  # fmt: skip
         return out
 
 

@@ -90,3 +90,15 @@ def test_a_cube_off_the_table_lands_on_the_floor(scene):
     floor_z = float(model.geom("floor").pos[2])
     np.testing.assert_allclose(data.qpos[adr + 2], floor_z + 0.02, atol=0.005)
     assert np.abs(data.qvel[joint.dofadr[0] : joint.dofadr[0] + 3]).max() < 1e-2
+
+
+@pytest.mark.parametrize("name", ["pick_move", "take_out"])
+def test_single_goal_gives_every_episode_the_mean_of_the_goal_distribution(name):
+    """PAS's single-goal formulation: one desired goal for every reset, the mean of the goals
+    the task draws (so inside the task's goal region, not one arbitrary draw)."""
+    keys = jax.random.split(jax.random.PRNGKey(5), 1024)
+    drawn = jax.vmap(make(name).sample_start)(keys)[2]
+    fixed = jax.vmap(make(name, EnvConfig(single_goal=True)).reset)(keys[:3]).desired_goal
+    assert float(jnp.std(drawn[:, 2])) > 0.02  # the task draws goals...
+    np.testing.assert_allclose(np.asarray(fixed), np.asarray(fixed[:1]).repeat(3, 0))
+    np.testing.assert_allclose(np.asarray(fixed[0]), np.asarray(drawn.mean(0)), atol=0.015)

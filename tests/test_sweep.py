@@ -216,3 +216,41 @@ def test_a_library_experiment_carries_its_library_overrides():
     with pytest.raises(ValueError, match="kind"):
         Experiment(name="t", description="", tasks=("pick_move",), methods=("ddpg_her",),
                    library={"anchor": "goal"})  # fmt: skip
+
+
+def test_an_experiment_variant_carries_its_env_overrides_under_its_own_name():
+    """`[env]` reaches the run's EnvConfig and `label` keeps the variant's cells apart from
+    the default cells (the store would refuse a shared name); bad env fields are named."""
+    single = load_experiment("pas_single_goal").cells()
+    default = [
+        c for c in load_experiment("fig6_3").cells() if (c.task, c.method) == ("pick_move", "pas")
+    ]
+    assert single[0].name == "pick_move-pas-SL1-single_goal-s5-e100" != default[0].name
+    assert (
+        single[0].run_args("out").env.single_goal and not default[0].run_args("out").env.single_goal
+    )
+    held = load_experiment("take_out_held").cells()[0].run_args("out")
+    assert held.env.held_start_prob == 0.5 and held.train.task == "take_out"
+    with pytest.raises(ValueError, match=r"unknown \[env\] field.*valid:.*single_goal"):
+        Experiment(name="t", description="", tasks=("pick_move",), methods=("ddpg_her",),
+                   env={"single_gaol": True})  # fmt: skip
+    with pytest.raises(ValueError, match="held_start_prob"):
+        Experiment(name="t", description="", tasks=("pick_move",), methods=("ddpg_her",),
+                   env={"held_start_prob": 2.0})  # fmt: skip
+
+
+def test_a_field_added_since_a_cell_was_stored_matches_only_at_its_default():
+    """A stored definition that predates a config field still matches while the field is at
+    its default (the behaviour the older code had), and is refused once it is set."""
+    from mjx_skills import cells
+
+    cell = _tiny().cells()[0]
+    new = cells.definition(cell)
+    old = json.loads(json.dumps(new))
+    del old["config"]["env"]["single_goal"]
+    assert cells._config_differences(old["config"], new["config"]) == []
+    variant = dataclasses.replace(cell, env=(("single_goal", True),))
+    diff = cells._config_differences(old["config"], cells.definition(variant)["config"])
+    assert diff == ["env.single_goal: None != True"]
+    old["config"]["env"]["single_goal"] = False  # a stored value is always compared
+    assert cells._config_differences(old["config"], cells.definition(variant)["config"])
