@@ -28,7 +28,7 @@ train: setup
 
 # Train transit / grasp / transfer, collect their data, fit their models (about 10 min).
 skills: setup
-	$(BIN)/python -m mjx_skills.skills --out $(LIBRARY) $(ARGS)
+	$(BIN)/python -m mjx_skills.build_library --out $(LIBRARY) $(ARGS)
 
 # The thesis's experiments: make sweep ARGS="--experiment fig6_3" (see --list).
 sweep: setup

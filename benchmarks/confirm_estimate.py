@@ -3,7 +3,7 @@
     python benchmarks/confirm_estimate.py --tasks pick_move --methods mpas pas ddpg_her \
         ddpg_her_sl --seeds 5 --epochs 100 --jobs 2 --name fig6_3_pick_move
 
-Prints the estimate first (`mjx_skills.cost`, from benchmarks/results/epoch_cost.jsonl),
+Prints the estimate first (`mjx_skills.sweeps.cost`, from benchmarks/results/epoch_cost.jsonl),
 then runs `python -m mjx_skills.sweep` with the same grid (resumable: a rerun picks up the
 finished cells, and then the wall time is not a whole run's) and prints one JSON line:
 {"name", "jobs", "estimate_s", "wall_s", "error": wall / estimate - 1, "cells": {...}}.
@@ -17,8 +17,8 @@ import subprocess
 import sys
 import time
 
-from mjx_skills import cost
-from mjx_skills.experiments import adhoc
+from mjx_skills.sweeps import cost
+from mjx_skills.sweeps.experiments import adhoc
 
 
 def main() -> None:

@@ -44,10 +44,11 @@ if "--cores" in sys.argv:  # pinned before JAX starts its threads, as a sweep wo
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from mjx_skills import methods, rollout  # noqa: E402
+from mjx_skills import methods
 from mjx_skills.config import EnvConfig, SearchConfig, TrainConfig  # noqa: E402
-from mjx_skills.train import build, make_evaluate, make_train_cycles, over_seeds  # noqa: E402
-from mjx_skills.workers import usable_cores  # noqa: E402
+from mjx_skills.core import rollout
+from mjx_skills.core.workers import usable_cores  # noqa: E402
+from mjx_skills.training.epoch import build, make_evaluate, make_train_cycles, over_seeds  # noqa: E402
 
 VARIANTS = ("ddpg_her", "pas", "mpas", "sl_eps1", "sl_eps0", "sl_eps1_whole", "oracle")
 

@@ -4,7 +4,7 @@
 
 Runs the command with OUT in a fresh directory, copies the run's metrics to
 experiments/results/pick_move_ddpg_her_sl_make_train.jsonl, measures the final policy on
-100 fresh episodes (`python -m mjx_skills.eval`) and prints one JSON line: {"command",
+100 fresh episodes (`python -m mjx_skills.evaluate`) and prints one JSON line: {"command",
 "wall_s", "curve", "fresh_success", "load_before", "commit"} (load_before: the 1-minute load
 average when it started; above ~0.5 on 2 cores the time is not an idle machine's). docs/benchmarks.md's "Speed" section (benchmarks/speed_report.py)
 computes from the curve when the 5-epoch rolling mean of eval success first reaches 0.90
@@ -36,7 +36,7 @@ def main() -> None:
         (metrics,) = Path(out).glob("pick_move/ddpg_her_sl/*/metrics.jsonl")
         shutil.copy(metrics, ROOT / CURVE)
         evaluated = subprocess.run(
-            [str(ROOT / ".venv" / "bin" / "python"), "-m", "mjx_skills.eval", str(metrics.parent),
+            [str(ROOT / ".venv" / "bin" / "python"), "-m", "mjx_skills.evaluate", str(metrics.parent),
              "--episodes", "100"], cwd=ROOT, check=True, capture_output=True, text=True)  # fmt: skip
         fresh = json.loads(evaluated.stdout.strip().splitlines()[-1])["success"]
     print(json.dumps({"command": "make train TASK=pick_move", "wall_s": round(wall, 1),

@@ -18,9 +18,10 @@ import os
 
 from train_throughput import timed_epochs  # the sibling script (benchmarks/ is on sys.path)
 
-from mjx_skills import compile_cache, methods
+from mjx_skills import methods
 from mjx_skills.config import EnvConfig, TrainConfig
-from mjx_skills.train import build
+from mjx_skills.core import compile_cache
+from mjx_skills.training.epoch import build
 
 
 def measure(method: str, task: str, epochs: int, leaf_state: str | None = None) -> dict:

@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 from mujoco import mjx
 
-from mjx_skills import compile_cache
+from mjx_skills.core import compile_cache
 from mjx_skills.envs import make
 
 

@@ -38,12 +38,12 @@ import jax
 import numpy as np
 
 import mjx_skills.envs.gym  # noqa: F401  (registers MjxSkills/*-v0)
-from mjx_skills import compile_cache
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
-from mjx_skills.ddpg_her import make_ddpg_her
+from mjx_skills.core import compile_cache
 from mjx_skills.envs import ENVS, make
 from mjx_skills.envs.gym import gym_id
-from mjx_skills.train import init_carry, make_evaluate, make_train_cycles
+from mjx_skills.methods.ddpg_her import make_ddpg_her
+from mjx_skills.training.epoch import init_carry, make_evaluate, make_train_cycles
 
 EPISODES_PER_EPOCH, EVAL_EPISODES = 16, 20
 

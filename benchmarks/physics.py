@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from mjx_skills import compile_cache
+from mjx_skills.core import compile_cache
 from mjx_skills.envs import make
 
 

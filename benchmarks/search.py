@@ -23,16 +23,18 @@ import time
 
 import jax
 
-from mjx_skills import compile_cache, library, methods, search
+from mjx_skills import methods
 from mjx_skills.config import SearchConfig
+from mjx_skills.core import compile_cache
 from mjx_skills.envs import make
+from mjx_skills.skills import library, lookahead
 
 THESIS_EPISODE_S = {5: 17.0, 10: 71.0, 15: 286.0}
 
 
 def measure(lib, env, obs, goal, K: int, batch: int, leaf: str, repeats: int = 3) -> dict:
     cfg = SearchConfig(branching=K, leaf_state=leaf)
-    fn = jax.jit(lambda o, g, k: search.search(lib, cfg, env, o, g, k))
+    fn = jax.jit(lambda o, g, k: lookahead.search(lib, cfg, env, o, g, k))
     o, g = obs[:batch], goal[:batch]
     t0 = time.perf_counter()
     jax.block_until_ready(fn(o, g, jax.random.PRNGKey(0)))

@@ -15,7 +15,7 @@ import json
 import sys
 from pathlib import Path
 
-from mjx_skills.claims import LABEL
+from mjx_skills.analysis.claims import LABEL
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -78,8 +78,8 @@ def sweeps() -> list[str]:
             f"busy, and two balanced cells at once finish at most 2 / {slow[0]:.2f} = "
             f"{2 / slow[0]:.2f}x sooner than one after the other; with unequal cells the longer "
             f"one sets the wall time."]  # fmt: skip
-    from mjx_skills import cost
-    from mjx_skills.experiments import load_experiment
+    from mjx_skills.sweeps import cost
+    from mjx_skills.sweeps.experiments import load_experiment
 
     table = rows("epoch_cost")
     total, serial, one_job, n = 0, 0, 0, 0
@@ -107,8 +107,8 @@ def sweeps() -> list[str]:
 
 def curve_summary(rows: list[dict]) -> tuple[float, int | None]:
     """(mean over seeds of the last 5 epochs, first epoch whose 5-epoch rolling mean of the
-    seeds' mean eval success is >= 0.90, or None): `mjx_skills.stats`, as the report."""
-    from mjx_skills import stats
+    seeds' mean eval success is >= 0.90, or None): `mjx_skills.analysis.stats`, as the report."""
+    from mjx_skills.analysis import stats
 
     scores = stats.scores_from_rows(rows)
     return float(scores[:, -stats.LAST :].mean()), stats.first_reaching(scores.mean(axis=0), 0.9)
@@ -163,7 +163,7 @@ def make_train() -> list[str]:
     start = run["wall_s"] - wall[max(wall)]  # process start, library load, first trace
     fresh = (
         f"; the final policy succeeds on {run['fresh_success']:.2f} of 100 fresh episodes "
-        f"(`python -m mjx_skills.eval RUN_DIR --episodes 100`)"
+        f"(`python -m mjx_skills.evaluate RUN_DIR --episodes 100`)"
         if "fresh_success" in run
         else ""
     )

@@ -20,9 +20,9 @@ import time
 
 import jax
 
-from mjx_skills import compile_cache
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
-from mjx_skills.train import build
+from mjx_skills.core import compile_cache
+from mjx_skills.training.epoch import build
 
 
 def timed_epochs(epoch_fn, carry, aux, epochs: int) -> tuple[float, float]:
@@ -59,7 +59,7 @@ def pure_updates(layer_norm: bool, obs_dim: int = 25, n: int = 1000) -> dict:
     128, 3 x 64 nets."""
     import jax.numpy as jnp
 
-    from mjx_skills import ddpg
+    from mjx_skills.agents import ddpg
 
     cfg = DDPGConfig(layer_norm=layer_norm)
     key = jax.random.PRNGKey(0)

@@ -319,7 +319,7 @@ class SearchConfig:
     stall_memory: int = 8
     """Obstacles each env remembers within an episode where a transit or transfer stalled;
     the search prunes moving edges whose path passes near one (0: off, the thesis; default
-    8, chosen by measurement: docs/results.md). See `mjx_skills/stalls.py`."""
+    8, chosen by measurement: docs/results.md). See `mjx_skills/skills/stalls.py`."""
     stall_step: float = 0.003
     """A running transit/transfer whose gripper moved less than this (m) in one step, short
     of its goal, has stalled: it ends, and the obstacle is remembered ..."""
@@ -377,7 +377,7 @@ class PASConfig:
     """Transfer also stops once the cube is this far (m) from the gripper: dropped."""
     critic: Literal["joint", "per_skill"] = "per_skill"
     """'per_skill': Q(s, g, k, goal_k) on the chosen skill's goal alone (the thesis's outlook,
-    MP-DQN; `pdqn`); 'joint': one critic over every skill's score and parameters, the actor
+    MP-DQN; `agents.mpdqn`); 'joint': one critic over every skill's score and parameters, the actor
     bounded by inverting gradients (the thesis, after Hausknecht & Stone; `--preset thesis`,
     compared in docs/results.md)."""
     terminal_at_goal: bool = True

@@ -4,7 +4,7 @@ python -m mjx_skills.render RUN_DIR [--episodes 1] [--out RUN_DIR/render.gif] [-
     [--run-seed 0] [--width 480 --height 360] [--camera NAME] [--overwrite]
 
 The episodes run in the JAX env on the native backend (`rollout.run_episodes` with the
-method's deterministic evaluation behaviour, as `python -m mjx_skills.eval`); each state's
+method's deterministic evaluation behaviour, as `python -m mjx_skills.evaluate`); each state's
 joint positions are then set on one MjData and drawn offscreen by `mujoco.Renderer`: one
 frame per env step (0.15 s of simulated time), each episode's start state included.
 
@@ -32,8 +32,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_skills import compile_cache, rollout
 from mjx_skills.cli_args import positive_int, run_parser
+from mjx_skills.core import compile_cache, rollout
 
 # Nothing imported above imports mujoco: it picks its GL backend on its first import, and
 # `main` sets MUJOCO_GL before that. Modules that import mujoco are imported in functions.
@@ -88,7 +88,7 @@ def gl_error() -> str | None:
 def record_episodes(
     run: Any, key: jax.Array, episodes: int, run_seed: int = 0
 ) -> tuple[np.ndarray, ...]:
-    """Trained seed `run_seed`'s evaluation episodes of a `mjx_skills.eval.TrainedRun` -> joint positions
+    """Trained seed `run_seed`'s evaluation episodes of a `mjx_skills.evaluate.TrainedRun` -> joint positions
     (n, T + 1, nq), grip positions (n, T + 1, 3) and final success (n,)."""
     from mjx_skills.envs.baxter import OBS_GRIP
 
@@ -111,7 +111,7 @@ def record_episodes(
     n_seeds = jax.tree.leaves(run.agents)[0].shape[0]
     if not 0 <= run_seed < n_seeds:
         raise ValueError(f"--run-seed {run_seed}: the run trained seeds 0..{n_seeds - 1}")
-    from mjx_skills.eval import seed_agent
+    from mjx_skills.evaluate import seed_agent
 
     agent = seed_agent(run, run_seed)
     return tuple(np.asarray(x) for x in jax.jit(fn)(agent, run.aux, key))
@@ -191,7 +191,7 @@ def main(argv: list[str] | None = None) -> None:
     problem = gl_error()
     if problem:
         raise SystemExit(f"error: {problem}")
-    from mjx_skills import eval as evaluation
+    from mjx_skills import evaluate as evaluation
 
     try:
         run = evaluation.load_trained(args.run_dir, physics="native")

@@ -4,9 +4,9 @@
     python -m mjx_skills.report --check    # fails if docs/results.md is not what the data gives
 
 Reads the finished cells of the thesis's experiments from the cell store
-(`experiments/results/cells/`, `mjx_skills.cells`; a cell counts only if today's definition
+(`experiments/results/cells/`, `mjx_skills.sweeps.cells`; a cell counts only if today's definition
 made it) and the skill libraries' manifests (Table 5.1). Every number in the report is
-computed here (`mjx_skills.stats`), and every claim of the thesis's chapter 6 and Table 5.1
+computed here (`mjx_skills.analysis.stats`), and every claim of the thesis's chapter 6 and Table 5.1
 gets a verdict by the rule stated beside it. Cells not run yet are listed as such.
 """
 
@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from mjx_skills import cells, stats
-from mjx_skills.claims import FAILS, LABEL, LEARNS, above, ci, claims, learns, reach
-from mjx_skills.experiments import Cell, load_experiment
-from mjx_skills.logging import read_metrics
+from mjx_skills.analysis import stats
+from mjx_skills.analysis.claims import FAILS, LABEL, LEARNS, above, ci, claims, learns, reach
+from mjx_skills.sweeps import cells
+from mjx_skills.sweeps.experiments import Cell, load_experiment
+from mjx_skills.training.metrics_log import read_metrics
 
 DOC = Path("docs") / "results.md"
 README = Path("README.md")
@@ -78,9 +79,9 @@ def table(header: list[str], rows: list[list[str]]) -> list[str]:
 # ----------------------------------------------------------------------------- the sections
 def table5_1() -> list[str]:
     """Table 5.1 from the committed libraries' manifests (the default and the thesis's)."""
-    from mjx_skills.library import read_manifest
+    from mjx_skills.build_library import THESIS_CM
     from mjx_skills.methods import THESIS_LIBRARY
-    from mjx_skills.skills import THESIS_CM
+    from mjx_skills.skills.library import read_manifest
 
     libs = [("default", Path("experiments/skill_library")), ("thesis preset", Path(THESIS_LIBRARY))]
     rows, found = [], []
@@ -220,7 +221,7 @@ def shorts(r: Results) -> list[str]:
             f"epochs {ci(d.last)}. Of its {episodes:,} training episodes (all seeds), "
             f"{won:.1%} ended at the goal, so it learns only from hindsight goals: wherever the "
             "cube happened to end. Our goal lies above the container, 10-22 cm over the table "
-            "(`envs/tasks.py`, TakeOut; the thesis says only 'on the top of the container'), "
+            "(`mjx_skills/envs/tasks.py`, TakeOut; the thesis says only 'on the top of the container'), "
             "so reaching it takes a grasp and a lift that random exploration did not find in "
             "100 epochs. A lower goal band is the first thing to try.")  # fmt: skip
     for task in ("pick_move", "put_in_container"):

@@ -9,17 +9,17 @@
     python -m mjx_skills.sweep --list
 
 An experiment is a small TOML file in experiments/ (`experiments/NAME.toml`, read by
-`mjx_skills.experiments`): tasks x methods x libraries, a budget and option overrides. A
+`mjx_skills.sweeps.experiments`): tasks x methods x libraries, a budget and option overrides. A
 cell is one (task, method, library) training run with all its seeds in one vmapped
 program (`runner.train_run`). Locally `--jobs N` cells run at once, each in its own worker
-process (`mjx_skills.workers`; default one cell per core, `--pin` to pin each to its own
+process (`mjx_skills.core.workers`; default one cell per core, `--pin` to pin each to its own
 cores; docs/benchmarks.md "Speed" has the measured gain); results are the same bits whatever N is.
 With `--ray ADDRESS` or `--ray local` each cell is a Ray task (the `ray` extra).
 `--estimate` prints the expected wall time from the measured epoch costs
-(`mjx_skills.cost`) without training.
+(`mjx_skills.sweeps.cost`) without training.
 
 Resumable: a cell runs in SWEEP_DIR/CELL/ (default runs/sweeps/NAME/) and, once finished, its
-metrics are kept with its definition in experiments/results/cells/CELL/ (`mjx_skills.cells`,
+metrics are kept with its definition in experiments/results/cells/CELL/ (`mjx_skills.sweeps.cells`,
 committed): a stored cell of the same definition is taken instead of trained, whichever
 experiment asks for it, and an interrupted one resumes from its checkpoint. A stored cell
 or a run made by another definition of the cell is refused with the fields that differ. When every cell is done the results are aggregated into
@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from mjx_skills.experiments import Cell, Experiment, adhoc, load_experiment, names
+from mjx_skills.sweeps.experiments import Cell, Experiment, adhoc, load_experiment, names
 
 RESULTS = Path("experiments") / "results"
 STORE = RESULTS / "cells"
@@ -63,7 +63,7 @@ def finished(run_dir: Path | None, cell: Cell) -> bool:
         return run_dir is not None and (run_dir / "manifest.json").exists()
     if run_dir is None or not (run_dir / "metrics.jsonl").exists():
         return False
-    from mjx_skills.logging import read_metrics
+    from mjx_skills.training.metrics_log import read_metrics
 
     last = [r for r in read_metrics(run_dir) if r["epoch"] == cell.epochs]
     return len({r["seed"] for r in last}) == cell.seeds
@@ -71,11 +71,12 @@ def finished(run_dir: Path | None, cell: Cell) -> bool:
 
 def run_cell(cell: Cell, cell_dir: str, progress: bool = True, store: str = str(STORE)) -> str:
     """Train (or resume, or take from the store) one cell -> the directory of its results
-    (a stored cell, `mjx_skills.cells`; a library cell: the library). Runs in this process
+    (a stored cell, `mjx_skills.sweeps.cells`; a library cell: the library). Runs in this process
     or in a worker: imports JAX only here. A run in `cell_dir` made by another definition
     is refused with the fields that differ."""
-    from mjx_skills import cells, compile_cache
-    from mjx_skills.runner import RunArgs, train_run
+    from mjx_skills.core import compile_cache
+    from mjx_skills.sweeps import cells
+    from mjx_skills.training.runner import RunArgs, train_run
 
     compile_cache.enable()
     run_dir = cell_run_dir(Path(cell_dir))
@@ -105,7 +106,7 @@ def result_dir(cell: Cell, cell_dir: Path, store: Path) -> Path | None:
     if cell.samples:
         run_dir = cell_run_dir(cell_dir)
         return run_dir if finished(run_dir, cell) else None
-    from mjx_skills import cells
+    from mjx_skills.sweeps import cells
 
     return cells.stored(cell, store)
 
@@ -113,8 +114,8 @@ def result_dir(cell: Cell, cell_dir: Path, store: Path) -> Path | None:
 def build_library(cell: Cell, cell_dir: Path, progress: bool) -> Path:
     """A library from `cell.samples` runs per skill; the sweep's libraries share one work
     directory (the trained skills), and a library is written whole or not at all."""
+    from mjx_skills.build_library import SkillsArgs, build
     from mjx_skills.config import LibraryConfig
-    from mjx_skills.skills import SkillsArgs, build
 
     overrides = dict(dict(cell.options).get("library", ()))
     args = SkillsArgs(config=LibraryConfig(samples=cell.samples, **overrides),
@@ -124,7 +125,7 @@ def build_library(cell: Cell, cell_dir: Path, progress: bool) -> Path:
 
 def aggregate(experiment: str, cells: list[Cell], run_dirs: list[Path]) -> tuple[list, list]:
     """-> (CSV rows: mean / std over seeds per epoch and cell, JSONL rows: every seed)."""
-    from mjx_skills.logging import read_metrics
+    from mjx_skills.training.metrics_log import read_metrics
 
     rows, per_seed = [], []
     for cell, run_dir in zip(cells, run_dirs, strict=True):
@@ -205,7 +206,7 @@ def run_cells_local(
         for i in todo:
             run_cell(cells[i], str(dirs[i]), progress, str(store))
     else:
-        from mjx_skills.workers import run_pool
+        from mjx_skills.core.workers import run_pool
 
         with tqdm(total=len(todo), desc=f"cells ({jobs} at once)", unit="cell",
                   disable=not progress) as bar:  # fmt: skip
@@ -238,7 +239,7 @@ def run_sweep(
     else:
         run_dirs = run_cells_local(cells, dirs, jobs, progress, pin, store)
     if exp.kind == "library":
-        from mjx_skills.skills import write_table
+        from mjx_skills.build_library import write_table
 
         return (write_table([Path(d) for d in run_dirs], csv_path),)
     rows, per_seed = aggregate(exp.name, cells, [Path(d) for d in run_dirs])
@@ -289,11 +290,11 @@ def main(argv: list[str] | None = None) -> None:
             raise ValueError(f"--jobs must be >= 1, got {args.jobs}")
     except ValueError as err:
         raise SystemExit(f"error: {err}") from None
-    from mjx_skills.workers import usable_cores
+    from mjx_skills.core.workers import usable_cores
 
     jobs = args.jobs or usable_cores()
     if args.estimate:
-        from mjx_skills import cost
+        from mjx_skills.sweeps import cost
 
         print(cost.report(exp, jobs))
         return

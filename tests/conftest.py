@@ -4,7 +4,7 @@ import functools
 
 import pytest
 
-from mjx_skills import compile_cache
+from mjx_skills.core import compile_cache
 from mjx_skills.envs import make
 
 # Compiled programs persist across test sessions (and are shared with the CLI's runs).

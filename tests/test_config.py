@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mjx_skills import cli
+from mjx_skills import train as train_command
 from mjx_skills.config import (
     DDPGConfig,
     EnvConfig,
@@ -88,7 +88,7 @@ def test_probabilities_and_discounts_above_one_are_refused(cls, name, value):
 def test_a_bad_norm_eps_on_the_command_line_stops_before_any_run_directory(value, tmp_path, capsys):
     """`--ddpg.norm-eps nan` (or 0, -1) made every normalised input NaN on real data."""
     with pytest.raises(SystemExit):
-        cli.main(
+        train_command.main(
             ["ddpg_her", "--task", "transit", "--ddpg.norm-eps", value, "--out", str(tmp_path)]
         )
     assert "invalid config value for 'norm_eps'" in " ".join(capsys.readouterr().err.split())

@@ -10,8 +10,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_skills import ddpg, normalizer
+from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig
+from mjx_skills.core import normalizer
 
 OBS, GOAL, ACT, B = 6, 3, 2, 64
 # A larger tau than the default makes a wrong soft update visible at float32 tolerances.

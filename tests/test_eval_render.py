@@ -9,12 +9,13 @@ import jax
 import numpy as np
 import pytest
 
-from mjx_skills import eval as evaluation
-from mjx_skills import render, train
+from mjx_skills import evaluate as evaluation
+from mjx_skills import render
 from mjx_skills.config import DDPGConfig, TrainConfig
-from mjx_skills.ddpg_her import make_ddpg_her
-from mjx_skills.logging import read_metrics
-from mjx_skills.runner import RunArgs, save_config, train_and_keep
+from mjx_skills.methods.ddpg_her import make_ddpg_her
+from mjx_skills.training import epoch
+from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.runner import RunArgs, save_config, train_and_keep
 
 # test_train's tiny budget: the persistent compile cache shares its compiled epoch.
 TINY = dict(task="transit", envs=2, cycles=2, updates_per_cycle=5, eval_episodes=2,
@@ -49,7 +50,7 @@ def test_eval_is_the_trainers_evaluation_of_the_checkpoint(trained, capsys, env_
     # same key: a restore, key or behaviour that differed would move the final distance.
     cfg = TrainConfig(**{**TINY, "eval_episodes": EPISODES})
     env = env_factory("transit")
-    evaluate = train.make_evaluate(make_ddpg_her(env, cfg, DDPGConfig()), env, cfg)
+    evaluate = epoch.make_evaluate(make_ddpg_her(env, cfg, DDPGConfig()), env, cfg)
     key = jax.random.PRNGKey(SEED)
     expected = jax.jit(jax.vmap(evaluate, in_axes=(0, None, None)))(carry.agent, None, key)
     assert row["success"] == pytest.approx(float(expected["eval_success"][0]))

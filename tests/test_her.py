@@ -9,8 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_skills import her, replay
-from mjx_skills.rollout import Episode
+from mjx_skills.core import her, replay
+from mjx_skills.core.rollout import Episode
 
 T = 10
 N_FILLED = 12  # of 30 slots: sampling must stay within the filled ones
@@ -153,7 +153,7 @@ def test_the_last_step_of_an_episode_bootstraps_through_the_time_limit(buffer):
     """Episodes end by time limit only: a transition at the last step (t = T - 1) carries no
     terminal flag, its next observation is the episode's final one, and its critic target
     depends on that observation through gamma * Q' (it is not the reward alone)."""
-    from mjx_skills import ddpg
+    from mjx_skills.agents import ddpg
     from mjx_skills.config import DDPGConfig
 
     batch = sampler("none")(buffer, jax.random.key(3), 512, relabel_prob=0.0)

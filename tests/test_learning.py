@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from mjx_skills.config import TrainConfig
-from mjx_skills.library import DEFAULT_DIR
-from mjx_skills.logging import read_metrics
-from mjx_skills.runner import RunArgs, train_run
+from mjx_skills.skills.library import DEFAULT_DIR
+from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.runner import RunArgs, train_run
 
 
 @pytest.mark.slow

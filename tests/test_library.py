@@ -12,9 +12,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_skills import fit, library
 from mjx_skills.config import DDPGConfig, LibraryConfig
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL
+from mjx_skills.skills import fit, library
 
 SMALL = LibraryConfig(model_hidden=(16, 16), classifier_hidden=(8,), fit_batch=32,
                       fit_epochs=40, patience=100, samples=512)  # fmt: skip
@@ -74,7 +74,7 @@ def test_classifier_fit_separates_a_known_boundary():
     _, params = fit.init_models(keys, SMALL, OBS, GOAL)
     loss = fit.classifier_loss(SMALL.classifier_hidden)
     best, _ = fit.fit(params, train, val, loss, 1e-2, SMALL, keys)
-    from mjx_skills.nets import SuccessClassifier
+    from mjx_skills.core.nets import SuccessClassifier
 
     logits = jax.vmap(SuccessClassifier(SMALL.classifier_hidden).apply)(best, val["o"], val["g"])
     for k in range(2):
@@ -227,7 +227,7 @@ def test_save_load_round_trip_and_refusals(constructed, tmp_path):
 def test_rows_grouped_by_skill_get_their_own_skills_network(rows, skills_used):
     """apply_per_row equals running each row through its own skill's weights, whether it
     selects (few rows) or groups rows by skill into blocks (many; skills may be unused)."""
-    from mjx_skills.grouped import apply_per_row
+    from mjx_skills.core.grouped import apply_per_row
 
     rng = np.random.default_rng(rows)
     weights = jnp.asarray(rng.normal(size=(3, 5, 4)), jnp.float32)
@@ -261,4 +261,6 @@ def test_a_library_from_other_scenes_or_code_is_flagged_with_the_rebuild_command
         if reason is None:
             assert not caplog.records
         else:
-            assert reason in caplog.text and "python -m mjx_skills.skills --out" in caplog.text
+            assert (
+                reason in caplog.text and "python -m mjx_skills.build_library --out" in caplog.text
+            )

@@ -3,7 +3,7 @@ import importlib.metadata
 import jax
 
 import mjx_skills
-from mjx_skills import compile_cache
+from mjx_skills.core import compile_cache
 
 
 def test_pinned_jax():
@@ -23,7 +23,7 @@ def test_importing_the_package_has_no_side_effects():
     import subprocess
     import sys
 
-    code = "import jax, mjx_skills.train; print(jax.config.jax_compilation_cache_dir)"
+    code = "import jax, mjx_skills.training.epoch; print(jax.config.jax_compilation_cache_dir)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "None"
 
@@ -40,3 +40,68 @@ def test_the_speed_section_is_what_the_committed_results_give():
     start = readme.index(report["BEGIN"])
     end = readme.index(report["END"]) + len(report["END"])
     assert readme[start:end] == report["section"](), "run python benchmarks/speed_report.py --write"
+
+
+def _cited(text: str):
+    """(kind, name) of every file, link, module and command a page cites."""
+    import re
+
+    for m in re.finditer(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text):
+        if not m.group(1).startswith("http"):
+            yield "link", m.group(1)
+    for m in re.finditer(r"(?<![\w./-])((?:[\w.-]+/)+[\w-]+\.(?:py|toml|md|ipynb|xml))\b", text):
+        if not re.search(r"\b[A-Z][A-Z_]+\b", m.group(1)):  # not a placeholder (NAME, RUN_DIR)
+            yield "path", m.group(1)
+    for m in re.finditer(r"python -m (mjx_skills(?:\.\w+)+)", text):
+        yield "command", m.group(1)
+    for m in re.finditer(r"\bmjx_skills(?:\.\w+)+", text):
+        yield "name", m.group(0)
+
+
+def _resolves(name: str) -> bool:
+    """A dotted name is a module, or an attribute of the longest module it starts with."""
+    import importlib
+    import importlib.util
+
+    parts = name.split(".")
+    for i in range(len(parts), 0, -1):
+        module = ".".join(parts[:i])
+        try:
+            if importlib.util.find_spec(module) is None:
+                continue
+        except ModuleNotFoundError:
+            continue
+        obj = importlib.import_module(module)
+        for attr in parts[i:]:
+            if not hasattr(obj, attr):
+                return False
+            obj = getattr(obj, attr)
+        return True
+    return False
+
+
+def test_the_docs_cite_only_what_exists():
+    """README, docs/, pyproject.toml and the Makefile: every relative link and file path
+    exists (paths inside the package may omit `mjx_skills/`), every `mjx_skills.*` name
+    imports and every `python -m` command is a runnable module."""
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    pages = [root / "README.md", root / "pyproject.toml", root / "Makefile",
+             *sorted((root / "docs").glob("*.md"))]  # fmt: skip
+    missing = []
+    for page in pages:
+        for kind, name in _cited(page.read_text()):
+            if kind == "link":
+                ok = (page.parent / name).exists()
+            elif kind == "path":
+                ok = (root / name).exists() or (root / "mjx_skills" / name).exists()
+            elif kind == "command":
+                spec = importlib.util.find_spec(name)
+                ok = spec is not None and '__name__ == "__main__"' in Path(spec.origin).read_text()
+            else:
+                ok = _resolves(name.removesuffix(".py"))
+            if not ok:
+                missing.append(f"{page.name}: {kind} {name}")
+    assert not missing, missing

@@ -9,11 +9,14 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_skills import ddpg, pas, replay, rollout, train
+from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, EnvConfig, PASConfig, SearchConfig, TrainConfig
-from mjx_skills.library import DEFAULT_DIR, LIBRARIES, load
-from mjx_skills.logging import read_metrics
-from mjx_skills.runner import RunArgs, train_run
+from mjx_skills.core import replay, rollout
+from mjx_skills.methods import pas
+from mjx_skills.skills.library import DEFAULT_DIR, LIBRARIES, load
+from mjx_skills.training import epoch
+from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.runner import RunArgs, train_run
 
 needs_library = pytest.mark.skipif(
     not (DEFAULT_DIR / "manifest.json").exists(), reason="no built skill library"
@@ -176,7 +179,7 @@ def test_library_methods_compile_once_repeat_and_resume(case, tmp_path):
     args = _args(tmp_path, case, seeds=2)
     method = args.method
     lib = methods.get(method).load_aux(args.full_options())
-    _, _, epoch_fn, carry0 = train.build(method, args.train, args.env, args.options, lib)
+    _, _, epoch_fn, carry0 = epoch.build(method, args.train, args.env, args.options, lib)
     copy = lambda c: jax.tree.map(jnp.copy, c)
     runs = []
     for _ in range(2):
@@ -204,9 +207,9 @@ def test_library_methods_compile_once_repeat_and_resume(case, tmp_path):
 ])  # fmt: skip
 def test_an_option_the_method_does_not_read_is_refused(argv, flag, tmp_path):
     """PAS / MPAS wrote these to config.json and did nothing with them."""
-    from mjx_skills import cli
+    from mjx_skills import train as train_command
 
     with pytest.raises(SystemExit, match=f"does not read .*{flag}"):
-        cli.main([*argv, "--task", "take_out", "--out", str(tmp_path)])
+        train_command.main([*argv, "--task", "take_out", "--out", str(tmp_path)])
     assert not any(tmp_path.iterdir())
-    cli.parse(["mpas", "--pas.updates-per-cycle", "50"])  # what it does read is fine
+    train_command.parse(["mpas", "--pas.updates-per-cycle", "50"])  # what it does read is fine

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from mjx_skills.config import EnvConfig, TrainConfig
-from mjx_skills.train import build
+from mjx_skills.training.epoch import build
 
 REFERENCE = Path(__file__).parent / "data" / "ddpg_her_reference.json"
 

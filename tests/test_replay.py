@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_skills import replay
+from mjx_skills.core import replay
 
 T = 5
 

@@ -4,7 +4,8 @@ docs/results.md is exactly what the committed data gives."""
 import numpy as np
 import pytest
 
-from mjx_skills import claims, report, stats
+from mjx_skills import report
+from mjx_skills.analysis import claims, stats
 
 
 def test_first_reaching_uses_the_rolling_mean_not_a_single_epoch():

@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 from flax import struct
 
-from mjx_skills import train
 from mjx_skills.config import DDPGConfig, TrainConfig
-from mjx_skills.ddpg_her import make_ddpg_her
-from mjx_skills.learner import Learner
-from mjx_skills.rollout import Behaviour, Episode, example_episode, run_episodes
+from mjx_skills.core.learner import Learner
+from mjx_skills.core.rollout import Behaviour, Episode, example_episode, run_episodes
+from mjx_skills.methods.ddpg_her import make_ddpg_her
+from mjx_skills.training import epoch
 
 HOLD = 3
 
@@ -102,11 +102,11 @@ def test_trainer_counts_steps_episodes_and_skill_calls():
                       replay_capacity=700, seeds=2, progress=False)  # fmt: skip
     ddpg_her = make_ddpg_her(env, cfg, DDPGConfig(hidden=(16,)))
     learner = Learner(**{**ddpg_her._asdict(), "explore": lambda a, aux, e: hold_behaviour()})
-    epoch = jax.jit(jax.vmap(train.make_train_epoch(learner, env, cfg), in_axes=(0, None)))
-    init = jax.vmap(lambda k: train.init_carry(learner, env, cfg, k))
-    carry = jax.jit(init)(train.seed_keys(cfg))
+    run_epoch = jax.jit(jax.vmap(epoch.make_train_epoch(learner, env, cfg), in_axes=(0, None)))
+    init = jax.vmap(lambda k: epoch.init_carry(learner, env, cfg, k))
+    carry = jax.jit(init)(epoch.seed_keys(cfg))
     for n in (1, 2):
-        carry, metrics = epoch(carry, None)
+        carry, metrics = run_epoch(carry, None)
         episodes = n * cfg.envs * cfg.cycles
         np.testing.assert_array_equal(metrics["episodes"], episodes)
         np.testing.assert_array_equal(metrics["env_steps"], episodes * env.episode_length)

@@ -11,10 +11,12 @@ import numpy as np
 import pytest
 from flax import struct
 
-from mjx_skills import ddpg, search, sl, stalls
+from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, SearchConfig
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
-from mjx_skills.library import SkillLibrary, consistent, skill_envs
+from mjx_skills.methods import ddpg_her_sl
+from mjx_skills.skills import lookahead, stalls
+from mjx_skills.skills.library import SkillLibrary, consistent, skill_envs
 
 NAMES = ("transit", "grasp", "transfer")
 
@@ -87,16 +89,16 @@ def test_one_level_search_returns_the_known_best_edge(env):
     lib = KnownLibrary()
     obs, goal = states(8, held=False)
     key = jax.random.PRNGKey(3)
-    found = jax.jit(lambda o, g: search.search(lib, cfg, env, o, g, key))(obs, goal)
-    skill, goals, ok = search.sample_edges(
+    found = jax.jit(lambda o, g: lookahead.search(lib, cfg, env, o, g, key))(obs, goal)
+    skill, goals, ok = lookahead.sample_edges(
         lib,
         cfg,
         obs,
         goal,
-        search.level_draws(search.draw_edges(search.env_keys(key, 8), cfg, 3), 0, 6),
+        lookahead.level_draws(lookahead.draw_edges(lookahead.env_keys(key, 8), cfg, 3), 0, 6),
     )
     nxt = jax.vmap(lambda s, g: lib.next_state(s, obs, g), in_axes=(1, 1), out_axes=1)(skill, goals)
-    utility = -goals[..., 0] + cfg.gamma * search.leaf_value(cfg, env, nxt, goal[:, None])
+    utility = -goals[..., 0] + cfg.gamma * lookahead.leaf_value(cfg, env, nxt, goal[:, None])
     best = np.argmax(np.where(ok, utility, -np.inf), axis=1)
     np.testing.assert_array_equal(
         found.skill, np.take_along_axis(np.asarray(skill), best[:, None], 1)[:, 0]
@@ -122,8 +124,8 @@ def test_goal_leaves_skip_the_model_and_score_the_goals(env):
     cfg = SearchConfig(height=1, branching=6, leaf_state="goal")
     obs, goal = states(8, held=False)
     key = jax.random.PRNGKey(3)
-    found = search.search(GoalLeafLibrary(), cfg, env, obs, goal, key)
-    want = search.search(KnownLibrary(), dataclasses.replace(cfg, leaf_state="predicted"),
+    found = lookahead.search(GoalLeafLibrary(), cfg, env, obs, goal, key)
+    want = lookahead.search(KnownLibrary(), dataclasses.replace(cfg, leaf_state="predicted"),
                          env, obs, goal, key)  # fmt: skip
     np.testing.assert_array_equal(found.skill, want.skill)
     np.testing.assert_allclose(found.utility, want.utility, rtol=1e-6)
@@ -131,7 +133,7 @@ def test_goal_leaves_skip_the_model_and_score_the_goals(env):
 
 def test_skills_follow_the_grasp_state_and_pruned_edges_are_never_chosen(env):
     cfg = SearchConfig()
-    run = jax.jit(lambda lib, o, g, k: search.search(lib, cfg, env, o, g, k), static_argnums=0)
+    run = jax.jit(lambda lib, o, g, k: lookahead.search(lib, cfg, env, o, g, k), static_argnums=0)
     free, goal = states(32, held=False)
     held, _ = states(32, held=True)
     for seed in range(3):
@@ -150,12 +152,12 @@ def test_an_all_pruned_tree_says_so_and_the_policy_acts(env):
     cfg = SearchConfig(eps_start=1.0, eps_end=1.0)
     lib = KnownLibrary(pruned=(0, 1, 2))
     obs, goal = states(6, held=False)
-    found = search.search(lib, cfg, env, obs, goal, jax.random.PRNGKey(0))
+    found = lookahead.search(lib, cfg, env, obs, goal, jax.random.PRNGKey(0))
     assert np.all(found.all_pruned) and np.all(np.isneginf(found.utility))
-    from mjx_skills import ddpg
+    from mjx_skills.agents import ddpg
 
     agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
-    beh = sl.make_behaviour(agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig())
+    beh = ddpg_her_sl.make_behaviour(agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig())
     state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
     ps, action, record = beh.step(beh.init(jax.random.PRNGKey(2), 6), jax.random.PRNGKey(3), state)
     assert (
@@ -165,7 +167,7 @@ def test_an_all_pruned_tree_says_so_and_the_policy_acts(env):
 
 
 def test_the_behaviour_commits_for_at_most_w_steps_and_follows_eps(env):
-    from mjx_skills import ddpg
+    from mjx_skills.agents import ddpg
 
     agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
     obs, goal = states(256, held=False)
@@ -173,7 +175,7 @@ def test_the_behaviour_commits_for_at_most_w_steps_and_follows_eps(env):
     for eps, w in ((1.0, 3), (0.3, 4)):
         # stall_memory 0: the state here never moves, which the stall memory takes for a stall.
         cfg = SearchConfig(eps_start=eps, eps_end=eps, skill_steps=w, stall_memory=0)
-        beh = sl.make_behaviour(
+        beh = ddpg_her_sl.make_behaviour(
             agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg, DDPGConfig()
         )
         step = jax.jit(beh.step)
@@ -205,14 +207,16 @@ class TerminatingLibrary(KnownLibrary):
 def test_a_terminated_skill_hands_back_the_decision_at_once(env):
     """With eps = 1 and w = 5, a skill that terminates is replaced by a new search at the
     very next step (KnownLibrary's never terminate: a new skill only every 5 steps)."""
-    from mjx_skills import ddpg
+    from mjx_skills.agents import ddpg
 
     agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
     obs, goal = states(16, held=False)
     state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
     cfg = SearchConfig(eps_start=1.0, eps_end=1.0, skill_steps=5, stall_memory=0)
     for lib, every in ((TerminatingLibrary(), 1), (KnownLibrary(), 5)):
-        beh = sl.make_behaviour(agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig())
+        beh = ddpg_her_sl.make_behaviour(
+            agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig()
+        )
         step = jax.jit(beh.step)
         ps, calls = beh.init(jax.random.PRNGKey(0), 16), []
         for t in range(10):
@@ -226,7 +230,7 @@ def test_a_terminated_skill_hands_back_the_decision_at_once(env):
 def test_the_oracle_explorer_acts_with_the_scripted_controller_at_rate_eps(env_factory):
     """explorer = "scripted": at eps = 1 every action is the task's scripted controller's,
     at eps = 0 none is (the learned policy's noisy action instead)."""
-    from mjx_skills import ddpg
+    from mjx_skills.agents import ddpg
     from mjx_skills.envs.controllers import make_scripted_policy
 
     task = env_factory("pick_move")
@@ -236,7 +240,9 @@ def test_the_oracle_explorer_acts_with_the_scripted_controller_at_rate_eps(env_f
     scripted = np.asarray(jax.vmap(make_scripted_policy(task))(obs, goal))
     for eps in (1.0, 0.0):
         cfg = SearchConfig(explorer="scripted", eps_start=eps, eps_end=eps)
-        beh = sl.make_scripted_behaviour(agent, jnp.zeros((), jnp.int32), task, cfg, DDPGConfig())
+        beh = ddpg_her_sl.make_scripted_behaviour(
+            agent, jnp.zeros((), jnp.int32), task, cfg, DDPGConfig()
+        )
         _, action, _ = beh.step(beh.init(jax.random.PRNGKey(0), 64), jax.random.PRNGKey(5), state)
         same = np.all(np.isclose(np.asarray(action), scripted, atol=1e-6), axis=1)
         assert same.all() if eps == 1.0 else not same.any()
@@ -245,19 +251,21 @@ def test_the_oracle_explorer_acts_with_the_scripted_controller_at_rate_eps(env_f
 def test_epsilon_decays_linearly():
     cfg = SearchConfig(eps_start=1.0, eps_end=0.001, eps_decay_epochs=30)
     np.testing.assert_allclose(
-        sl.epsilon(cfg, jnp.array([0, 15, 30, 60])), [1.0, 0.5005, 0.001, 0.001], atol=1e-6
+        ddpg_her_sl.epsilon(cfg, jnp.array([0, 15, 30, 60])), [1.0, 0.5005, 0.001, 0.001], atol=1e-6
     )
 
 
 def test_a_solved_task_holds_still(env):
-    from mjx_skills import ddpg
+    from mjx_skills.agents import ddpg
 
     agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
     obs, _ = states(4, held=True)
     goal = obs[:, OBS_OBJECT]  # the cube is at the task goal already
     state = EnvState(obs=obs, desired_goal=goal, achieved_goal=goal)
     cfg = SearchConfig(eps_start=1.0, eps_end=1.0)
-    beh = sl.make_behaviour(agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg, DDPGConfig())
+    beh = ddpg_her_sl.make_behaviour(
+        agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg, DDPGConfig()
+    )
     ps, action, record = beh.step(beh.init(jax.random.PRNGKey(0), 4), jax.random.PRNGKey(1), state)
     assert np.all(record["holds"]) and not np.any(record["searches"]) and not np.any(ps.active)
     np.testing.assert_allclose(action[:, :3], 0.0)
@@ -312,7 +320,7 @@ def test_a_stalled_transfer_ends_and_the_search_stops_planning_through_it(env):
     state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
     for share in (0.0, 0.5):
         cfg = SearchConfig(eps_start=1.0, eps_end=1.0, stall_memory=4, waypoint_share=share)
-        beh = sl.make_behaviour(agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg,
+        beh = ddpg_her_sl.make_behaviour(agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg,
                                 DDPGConfig())  # fmt: skip
         step = jax.jit(beh.step)
         ps = beh.init(jax.random.PRNGKey(0), 64)
@@ -343,9 +351,9 @@ def test_waypoints_spread_transfer_goals_over_the_goal_box(env):
     lib = KnownLibrary()
     for share, far in ((0.0, 0), (0.5, 100)):
         cfg = SearchConfig(waypoint_share=share)
-        draws = search.draw_edges(search.env_keys(jax.random.PRNGKey(0), 64), cfg, 3)
-        skill, goals, _ = search.sample_edges(
-            lib, cfg, held, goal, search.level_draws(draws, 0, cfg.branching)
+        draws = lookahead.draw_edges(lookahead.env_keys(jax.random.PRNGKey(0), 64), cfg, 3)
+        skill, goals, _ = lookahead.sample_edges(
+            lib, cfg, held, goal, lookahead.level_draws(draws, 0, cfg.branching)
         )
         assert np.all(np.asarray(skill) == TRANSFER)
         dist = np.abs(np.asarray(goals) - np.asarray(goal)[:, None]).max(-1)
@@ -373,7 +381,7 @@ def test_search_where_searches_only_the_deciding_envs_each_with_its_own_key(env)
     where = jnp.array([1, 0, 0, 1, 1, 0, 1, 0], bool)
     results = {
         chunk: jax.jit(
-            lambda w, c=chunk: search.search_where(
+            lambda w, c=chunk: lookahead.search_where(
                 lib, SearchConfig(search_chunk=c), env, w, obs, goal, key
             )
         )(where)  # fmt: skip
@@ -382,8 +390,8 @@ def test_search_where_searches_only_the_deciding_envs_each_with_its_own_key(env)
     for found in results.values():
         np.testing.assert_array_equal(found.all_pruned, ~np.asarray(where))
         for i in np.flatnonzero(where):  # env i alone, with its own key
-            keys = search.env_keys(key, 8)[i : i + 1]
-            alone = search.search_envs(
+            keys = lookahead.env_keys(key, 8)[i : i + 1]
+            alone = lookahead.search_envs(
                 lib, SearchConfig(), env, obs[i : i + 1], goal[i : i + 1], keys
             )
             assert found.skill[i] == alone.skill[0]
@@ -396,7 +404,7 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
     evaluated at a step where no env of either seed explores, and one exploring env costs
     one round of chunks, not a search of the whole batch at every step (the old cond on a
     batched predicate ran the whole tree for every env at every step)."""
-    from mjx_skills import rollout
+    from mjx_skills.core import rollout
 
     agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
     obs, goal = states(4, held=False)
@@ -410,10 +418,10 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
     where = jnp.zeros((2, 4), bool).at[1, 2].set(True)
     key = jax.random.PRNGKey(0)
     found = over_seeds(
-        lambda w, o, g: search.search_where(lib, cfg, env, w, o, g, key)
+        lambda w, o, g: lookahead.search_where(lib, cfg, env, w, o, g, key)
     )(where, jnp.stack([obs, obs]), jnp.stack([goal, goal]))  # fmt: skip
-    alone = search.search_envs(KnownLibrary(), cfg, env, obs[2:3], goal[2:3],
-                               search.env_keys(key, 4)[2:3])  # fmt: skip
+    alone = lookahead.search_envs(KnownLibrary(), cfg, env, obs[2:3], goal[2:3],
+                               lookahead.env_keys(key, 4)[2:3])  # fmt: skip
     assert np.all(found.all_pruned == ~np.asarray(where))
     assert found.skill[1, 2] == alone.skill[0]
     np.testing.assert_allclose(found.goal[1, 2], alone.goal[0], atol=1e-6)
@@ -425,7 +433,9 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
     for eps in (0.0, 1.0):
         lib = CountingLibrary()
         cfg = dataclasses.replace(cfg, eps_start=eps, eps_end=eps)
-        beh = sl.make_behaviour(agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig())
+        beh = ddpg_her_sl.make_behaviour(
+            agent, lib, jnp.zeros((), jnp.int32), env, cfg, DDPGConfig()
+        )
 
         def steps(key, beh=beh):
             ps = beh.init(key, 4)
@@ -460,14 +470,14 @@ def _visit(lib, cfg, env, e, goal, draws, state, level, node, u, disc, first, al
     step = lib.next_state if cfg.lookahead_next == "model" else lib.recall
     start = sum(b**i for i in range(level))
     mine = tuple(x[e : e + 1, start + node] for x in draws)
-    skills, goals, ok = search.sample_edges(lib, cfg, state[None], goal[e : e + 1], mine)
+    skills, goals, ok = lookahead.sample_edges(lib, cfg, state[None], goal[e : e + 1], mine)
     for c in range(b):
         sk, g = skills[:, c], goals[:, c]
         prob = float(lib.success_prob(sk, state[None], g)[0])
         valid = alive and bool(ok[0, c]) and prob > cfg.prune_below
         u2 = u + disc * float(lib.q(sk, state[None], g)[0])
         nxt = step(sk, state[None], g)[0]
-        leaf = u2 + disc * cfg.gamma * float(search.leaf_value(cfg, env, nxt, goal[e]))
+        leaf = u2 + disc * cfg.gamma * float(lookahead.leaf_value(cfg, env, nxt, goal[e]))
         f = first or (int(sk[0]), np.asarray(g[0]))
         if valid and leaf > found["best"][0]:
             found["best"] = (leaf, *f)
@@ -482,7 +492,7 @@ def brute_force(lib, cfg, env, obs, goal, key) -> list[tuple[float, int, np.ndar
     """Every path of every env's tree, enumerated one edge at a time with the same draws:
     per env (best utility, its first skill, first goal, whether some pruned edge had a
     descendant that would have beaten it)."""
-    draws = search.draw_edges(search.env_keys(key, obs.shape[0]), cfg, len(lib.names))
+    draws = lookahead.draw_edges(lookahead.env_keys(key, obs.shape[0]), cfg, len(lib.names))
     out = []
     for e in range(obs.shape[0]):
         found = {"best": (-np.inf, -1, None), "hidden": -np.inf}
@@ -506,7 +516,7 @@ def test_the_tree_search_equals_a_brute_force_enumeration_of_every_path(
     held, _ = states(6, held=True)
     obs = jnp.concatenate([obs[:3], held[:3]])  # transit/grasp trees and transfer trees
     key = jax.random.PRNGKey(7)
-    found = search.search(lib, cfg, env, obs, goal, key)
+    found = lookahead.search(lib, cfg, env, obs, goal, key)
     want = brute_force(lib, cfg, env, obs, goal, key)
     for e, (u, skill, g, _) in enumerate(want):
         if not np.isfinite(u):

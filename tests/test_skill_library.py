@@ -10,8 +10,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_skills import library, rollout
+from mjx_skills.core import rollout
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
+from mjx_skills.skills import library
 
 ROOT = Path(__file__).resolve().parents[1]
 EPISODES = 200
@@ -60,8 +61,8 @@ def test_grasp_classifier_agrees_with_the_skill_far_from_the_cube(built):
     """The thesis's grasp fails from 30 cm away, so its classifier must refuse it there. Our
     grasp policy reaches the cube first (it succeeds from ~3/4 of such starts within its 20
     steps), so the honest check is that the classifier predicts what the skill then does."""
-    from mjx_skills import fit
     from mjx_skills.config import DDPGConfig
+    from mjx_skills.skills import fit
 
     lib, _ = built
     k = lib.index("grasp")

@@ -1,4 +1,4 @@
-"""The package's shape: no import circles, modules of a readable size."""
+"""The package's shape: layers imported one way, no import circles, modules of a readable size."""
 
 from __future__ import annotations
 
@@ -70,3 +70,30 @@ def test_modules_stay_readable():
         if (n := len(p.read_text().splitlines())) > MAX_LINES
     }
     assert not long, f"modules over {MAX_LINES} lines: {long}"
+
+
+LAYERS = ("config", "core", "envs", "agents", "skills", "methods", "training", "sweeps", "analysis")
+"""Low to high: a module imports only from its own layer and those below. `mjx_skills`
+itself (the version) is below all; the command modules at the top level are above all."""
+
+
+def _layer(module: str) -> int:
+    parts = module.split(".")
+    if len(parts) == 1:
+        return -1
+    if parts[1] in LAYERS:
+        return LAYERS.index(parts[1])
+    return len(LAYERS)  # a command: train, build_library, sweep, evaluate, render, report
+
+
+def test_layers_import_one_way():
+    paths = {_module_name(p): p for p in PACKAGE.rglob("*.py")}
+    assert {m.split(".")[1] for m in paths if m.count(".") >= 2} <= set(LAYERS), (
+        "a subpackage without a layer"
+    )
+    upward = [f"{m} -> {n}" for m, p in sorted(paths.items()) for n in sorted(_imports(p, set(paths)))
+              if _layer(n) > _layer(m)]  # fmt: skip
+    assert not upward, "imports against the layers: " + ", ".join(upward)
+    commands = {m for m in paths if _layer(m) == len(LAYERS)}
+    assert commands == {f"mjx_skills.{c}" for c in ("train", "build_library", "sweep", "evaluate",
+                                                     "render", "report", "cli_args")}  # fmt: skip

@@ -8,9 +8,9 @@ import json
 import pytest
 
 from mjx_skills import sweep
-from mjx_skills.experiments import Experiment, load_experiment, names
-from mjx_skills.logging import read_metrics
-from mjx_skills.runner import train_run
+from mjx_skills.sweeps.experiments import Experiment, load_experiment, names
+from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.runner import train_run
 
 TINY = {"envs": 2, "cycles": 2, "updates_per_cycle": 3, "eval_episodes": 2,
         "replay_capacity": 3000}  # fmt: skip
@@ -144,7 +144,7 @@ def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, 
 
 
 def test_core_groups_are_disjoint_and_cover_the_cores():
-    from mjx_skills.workers import core_groups
+    from mjx_skills.core.workers import core_groups
 
     assert core_groups(2, [0, 1]) == [(0,), (1,)]
     assert core_groups(2, [0, 1, 2, 3, 4]) == [(0, 1, 2), (3, 4)]
@@ -154,7 +154,7 @@ def test_core_groups_are_disjoint_and_cover_the_cores():
 
 
 def test_the_estimate_adds_up_the_measured_epoch_costs():
-    from mjx_skills import cost
+    from mjx_skills.sweeps import cost
 
     rows = [{"variant": v, "seeds": s, "cores": 1, "epoch_s": e * s, "compile_s": 10.0,
              "updates_s": 0.0 if v != "ddpg_her" else e * s}
@@ -242,7 +242,7 @@ def test_an_experiment_variant_carries_its_env_overrides_under_its_own_name():
 def test_a_field_added_since_a_cell_was_stored_matches_only_at_its_default():
     """A stored definition that predates a config field still matches while the field is at
     its default (the behaviour the older code had), and is refused once it is set."""
-    from mjx_skills import cells
+    from mjx_skills.sweeps import cells
 
     cell = _tiny().cells()[0]
     new = cells.definition(cell)

@@ -7,11 +7,11 @@ import jax
 import numpy as np
 import pytest
 
-from mjx_skills import train as train_mod
 from mjx_skills.config import DDPGConfig, EnvConfig, TrainConfig
-from mjx_skills.ddpg_her import make_ddpg_her
-from mjx_skills.logging import read_metrics
-from mjx_skills.runner import RunArgs, check_finite, load_config, train_run
+from mjx_skills.methods.ddpg_her import make_ddpg_her
+from mjx_skills.training import epoch as train_mod
+from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.runner import RunArgs, check_finite, load_config, train_run
 
 # A tiny budget: every code path of an epoch, compiled in seconds.
 TINY = dict(task="transit", envs=2, cycles=2, updates_per_cycle=5, eval_episodes=2,
@@ -174,7 +174,7 @@ def test_counters_are_the_x_axes(tmp_path):
     ],
 )
 def test_cli_bad_input_is_a_clear_error(argv, message, capsys):
-    from mjx_skills.cli import main
+    from mjx_skills.train import main
 
     with pytest.raises(SystemExit) as exit_info:
         main([*argv, "--out", "/nonexistent/never-written"])
@@ -182,7 +182,7 @@ def test_cli_bad_input_is_a_clear_error(argv, message, capsys):
 
 
 def test_cli_forms_parse_to_the_same_run():
-    from mjx_skills.cli import parse
+    from mjx_skills.train import parse
 
     sub = parse(["ddpg_her", "--task", "transit", "--ddpg.actor-lr", "3e-4", "--physics", "mjx"])
     old = parse(["--method", "ddpg_her", "--task", "transit", "--ddpg.actor-lr", "3e-4",

@@ -12,7 +12,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
-from mjx_skills import rollout
+from mjx_skills.core import rollout
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, BaxterEnv
 from mjx_skills.envs.tasks import ContainerWall, PutInContainer, TakeOut
 

@@ -25,7 +25,7 @@ import numpy as np
 from flax import struct
 from mujoco import rollout
 
-from mjx_skills.workers import usable_cores
+from mjx_skills.core.workers import usable_cores
 
 # mujoco.mjx prints "Failed to import warp" when its optional Warp backend is absent, as it
 # is on a CPU; keep that out of every CLI run's output.

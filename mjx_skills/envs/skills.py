@@ -108,3 +108,8 @@ class Transfer(BaxterEnv):
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """At the goal, or the cube dropped (nothing left to transfer)."""
         return self.is_success(obs[..., OBS_OBJECT], goal) | ~self.grasped(obs)
+
+
+PARAM_DIM = max(Transit.param_dim, Grasp.param_dim, Transfer.param_dim)
+"""Goal parameters padded to the widest skill's (transit and transfer: 3), as a
+meta-controller over the skills outputs them."""

@@ -29,11 +29,13 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from mjx_skills import ddpg, pdqn, replay, rollout
+from mjx_skills.agents import ddpg, mpdqn
 from mjx_skills.config import DDPGConfig, PASConfig, TrainConfig
+from mjx_skills.core import replay, rollout
+from mjx_skills.core.learner import Learner
 from mjx_skills.envs.baxter import OBS_REL
-from mjx_skills.learner import Learner
-from mjx_skills.library import PARAM_DIM, SkillLibrary, allowed_skills, skill_envs
+from mjx_skills.envs.skills import PARAM_DIM
+from mjx_skills.skills.library import SkillLibrary, allowed_skills, skill_envs
 
 
 @struct.dataclass
@@ -91,8 +93,8 @@ def make_behaviour(
         done = _stopped(lib, ms.skill, obs, ms.goal, cfg.drop_distance)
         decide = ~ms.active | done | (ms.steps >= cfg.skill_steps)
         if cfg.critic == "per_skill":
-            new_skill, new_goal, meta = pdqn.choose(agent, obs, task_goal, lib.allowed(obs),
-                                                    pdqn.skill_goals(lib.envs), ddpg_config,
+            new_skill, new_goal, meta = mpdqn.choose(agent, obs, task_goal, lib.allowed(obs),
+                                                    mpdqn.skill_goals(lib.envs), ddpg_config,
                                                     key if noisy else None)  # fmt: skip
         else:
             if noisy:
@@ -206,14 +208,14 @@ def summarize(names: tuple[str, ...]):
 def make_pas(env: Any, train: TrainConfig, ddpg: DDPGConfig, pas: PASConfig) -> Learner:
     """PAS (pas.hindsight off) or MPAS (on); `aux` is the SkillLibrary. (The parameters are
     named after the method's option groups, `--ddpg.*` and `--pas.*`.)"""
-    from mjx_skills import ddpg as agent_ops
-    from mjx_skills.library import library_skills
+    from mjx_skills.agents import ddpg as agent_ops
+    from mjx_skills.skills.library import library_skills
 
     names = library_skills(pas.library)
 
     def init(key):
         if pas.critic == "per_skill":
-            return pdqn.init(key, env.obs_dim, env.goal_dim, len(names), ddpg)
+            return mpdqn.init(key, env.obs_dim, env.goal_dim, len(names), ddpg)
         return agent_ops.init(key, env.obs_dim, env.goal_dim, meta_dim(len(names)), ddpg,
                               bounds="invert")  # fmt: skip
 
@@ -225,7 +227,7 @@ def make_pas(env: Any, train: TrainConfig, ddpg: DDPGConfig, pas: PASConfig) -> 
         batch = sample_batch(buffer, key, n * b, env, pas, names)
         batches = jax.tree.map(lambda x: x.reshape(n, b, *x.shape[1:]), batch)
         if pas.critic == "per_skill":
-            return pdqn.update(agent, batches, pdqn.skill_goals(skill_envs(names)), ddpg)
+            return mpdqn.update(agent, batches, mpdqn.skill_goals(skill_envs(names)), ddpg)
         return agent_ops.update(agent, batches, ddpg)
 
     return Learner(

@@ -19,12 +19,14 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from mjx_skills import ddpg, rollout, search, stalls
+from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
-from mjx_skills.ddpg_her import make_ddpg_her
+from mjx_skills.core import rollout
+from mjx_skills.core.learner import Learner
 from mjx_skills.envs.baxter import OBS_GRIP
-from mjx_skills.learner import Learner
-from mjx_skills.library import SkillLibrary
+from mjx_skills.methods.ddpg_her import make_ddpg_her
+from mjx_skills.skills import lookahead, stalls
+from mjx_skills.skills.library import SkillLibrary
 
 
 @struct.dataclass
@@ -90,8 +92,8 @@ def make_behaviour(
         hold = explore & solved
         explore = explore & ~solved
         # The search's cost is paid only for the envs that explore, and not at all at a step
-        # where no env of any seed explores (`search.search_where`).
-        found = search.search_where(lib, cfg, env, explore, obs, task_goal, k_search,
+        # where no env of any seed explores (`lookahead.search_where`).
+        found = lookahead.search_where(lib, cfg, env, explore, obs, task_goal, k_search,
                                     ps.obstacles if cfg.stall_memory else None)  # fmt: skip
         start = explore & ~found.all_pruned
         active = jnp.where(decide, start, ps.active)

@@ -10,7 +10,7 @@ lies entirely above B's.
 
 from __future__ import annotations
 
-from mjx_skills.stats import Summary
+from mjx_skills.analysis.stats import Summary
 
 FAILS = 0.1
 LEARNS = 0.5

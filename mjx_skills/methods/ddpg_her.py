@@ -7,11 +7,11 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from mjx_skills import ddpg as ddpg_agent
-from mjx_skills import her, rollout
+from mjx_skills.agents import ddpg as ddpg_agent
 from mjx_skills.config import DDPGConfig, TrainConfig
-from mjx_skills.learner import Learner
-from mjx_skills.replay import ReplayState
+from mjx_skills.core import her, rollout
+from mjx_skills.core.learner import Learner
+from mjx_skills.core.replay import ReplayState
 
 
 def make_ddpg_her(env: Any, train: TrainConfig, ddpg: DDPGConfig) -> Learner:

@@ -28,7 +28,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
+EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 LIBRARY_GROUP = {"ddpg_her_sl": "search", "pas": "pas", "mpas": "pas"}
 """The option group that names a library method's skill library."""
 
@@ -68,7 +68,7 @@ class Cell:
     def run_args(self, out: str, progress: bool = True):
         from mjx_skills import methods
         from mjx_skills.config import EnvConfig, TrainConfig
-        from mjx_skills.runner import RunArgs
+        from mjx_skills.training.runner import RunArgs
 
         spec = methods.get(self.method)
         groups = {group: dict(fields) for group, fields in self.options}
@@ -109,7 +109,7 @@ class Experiment:
         from mjx_skills import methods
         from mjx_skills.config import EnvConfig, TrainConfig
         from mjx_skills.envs.registry import check_name
-        from mjx_skills.library import library_skills
+        from mjx_skills.skills.library import library_skills
 
         if self.kind not in ("train", "library"):
             raise ValueError(

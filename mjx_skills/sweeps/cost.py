@@ -3,7 +3,7 @@
     python -m mjx_skills.sweep --experiment fig6_3 --epochs 100 --seeds 5 --estimate
 
 The model, per cell (task, method, seeds, epochs):
-- an epoch costs what `epoch_cost.py` measured for the method on pick_move at that number
+- an epoch costs what `benchmarks/epoch_cost.py` measured for the method on pick_move at that number
   of seeds (linear between the measured seed counts, and beyond them from the last two), on
   the number of cores the cell gets (`cores_per_job`: rows measured with `--cores 1` for
   two cells at once on two cores);
@@ -24,9 +24,9 @@ import heapq
 import json
 from pathlib import Path
 
-from mjx_skills.experiments import Cell, Experiment
+from mjx_skills.sweeps.experiments import Cell, Experiment
 
-RESULTS = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "epoch_cost.jsonl"
+RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "epoch_cost.jsonl"
 REFERENCE_LENGTH = 50
 """Episode length of pick_move, the task the epoch costs are measured on."""
 
@@ -81,7 +81,7 @@ def cell_seconds(cell: Cell, table: CostTable) -> float:
 
     from mjx_skills.config import SearchConfig
     from mjx_skills.envs.registry import ENVS
-    from mjx_skills.sl import epsilon
+    from mjx_skills.methods.ddpg_her_sl import epsilon
 
     length = ENVS[cell.task].default_episode_length
     search = dataclasses.replace(SearchConfig(), **dict(dict(cell.options).get("search", ())))
@@ -109,7 +109,7 @@ def estimate(
 ) -> dict:
     """{cells: {name: s}, serial_s, wall_s, jobs, cores_per_job} for a training experiment
     on `cores` cores (default: the ones this process may use)."""
-    from mjx_skills.workers import usable_cores
+    from mjx_skills.core.workers import usable_cores
 
     rows = [r for r in rows if "variant" in r] if rows is not None else load_rows()
     jobs = max(1, min(jobs, len(exp.cells())))  # as the sweep: no more workers than cells

@@ -1,8 +1,8 @@
 """Build the skill library: train each skill, collect its data, fit its models, save.
 
-    python -m mjx_skills.skills                      # or `make skills`
-    python -m mjx_skills.skills --out DIR --samples 100000
-    python -m mjx_skills.skills --table              # Table 5.1 of the library at --out
+    python -m mjx_skills.build_library                      # or `make skills`
+    python -m mjx_skills.build_library --out DIR --samples 100000
+    python -m mjx_skills.build_library --table              # Table 5.1 of the library at --out
 
 Phases, each with its progress bar and its time in the manifest: (1) DDPG+HER per skill on
 its skill env (grasp with held starts in training), its success measured on fresh episodes
@@ -27,12 +27,13 @@ import numpy as np
 import tyro
 from tqdm.auto import tqdm
 
-from mjx_skills import compile_cache, fit, library, rollout
 from mjx_skills.config import DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
-from mjx_skills.ddpg_her import make_ddpg_her
+from mjx_skills.core import compile_cache, rollout
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
 from mjx_skills.envs.registry import SKILLS
-from mjx_skills.runner import RunArgs, train_and_keep
+from mjx_skills.methods.ddpg_her import make_ddpg_her
+from mjx_skills.skills import fit, library
+from mjx_skills.training.runner import RunArgs, train_and_keep
 
 TABLE = Path("experiments") / "results" / "table_5_1.csv"
 THESIS_CM = {"transit": (1.9, 1.6), "grasp": (2.8, 1.2), "transfer": (4.6, 2.0)}

@@ -27,10 +27,11 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from mjx_skills import rollout, stalls
 from mjx_skills.config import SearchConfig
+from mjx_skills.core import rollout
 from mjx_skills.envs.baxter import OBS_OBJECT
-from mjx_skills.library import SkillLibrary
+from mjx_skills.skills import stalls
+from mjx_skills.skills.library import SkillLibrary
 
 
 @struct.dataclass

@@ -12,9 +12,9 @@ import jax.numpy as jnp
 import optax
 from flax import struct
 
-from mjx_skills import normalizer, optim
 from mjx_skills.config import DDPGConfig
-from mjx_skills.nets import Actor, Critic
+from mjx_skills.core import normalizer, optim
+from mjx_skills.core.nets import Actor, Critic
 
 Params = dict
 

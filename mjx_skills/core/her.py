@@ -11,7 +11,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
-from mjx_skills import replay
+from mjx_skills.core import replay
 
 STRATEGIES = ("future", "final", "episode", "none")
 

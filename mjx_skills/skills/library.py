@@ -28,12 +28,13 @@ import numpy as np
 import orbax.checkpoint as ocp
 from flax import struct
 
-from mjx_skills import __version__, ddpg
+from mjx_skills import __version__
+from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, LibraryConfig, from_dict
+from mjx_skills.core.grouped import apply_per_row, select
+from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, XML_DIR, BaxterEnv
 from mjx_skills.envs.registry import SKILLS, make
-from mjx_skills.grouped import apply_per_row, select
-from mjx_skills.nets import CoarseDynamics, SuccessClassifier
 
 LIBRARIES = {
     "SL1": ("transit", "grasp", "transfer"),
@@ -41,8 +42,6 @@ LIBRARIES = {
     "SL3": ("transit", "transfer"),
 }
 """The thesis's libraries by name (Fig. 6.4): the full one and two reduced ones."""
-PARAM_DIM = 3
-"""Goal parameters padded to the widest skill's (transit and transfer: 3)."""
 FORMAT = 1
 """Version of the on-disk layout; a library of another format is refused."""
 DEFAULT_DIR = Path("experiments") / "skill_library"
@@ -306,7 +305,7 @@ def read_manifest(directory: Path) -> dict[str, Any]:
     if not directory.exists():
         raise FileNotFoundError(
             f"no skill library at {directory}; build it with `make skills` "
-            f"(python -m mjx_skills.skills --out {directory})"
+            f"(python -m mjx_skills.build_library --out {directory})"
         )
     if not path.exists():
         raise ValueError(f"{directory} is a half-written skill library (no manifest.json)")
@@ -319,7 +318,7 @@ def read_manifest(directory: Path) -> dict[str, Any]:
     reasons = stale_reasons(manifest)
     if reasons:
         log.warning("skill library %s may be stale: %s; rebuild it with `python -m "
-                    "mjx_skills.skills --out DIR` (and the same options, see its manifest)",
+                    "mjx_skills.build_library --out DIR` (and the same options, see its manifest)",
                     directory, "; ".join(reasons))  # fmt: skip
     return manifest
 
@@ -343,7 +342,7 @@ def empty_like(
     names: tuple[str, ...], ddpg_config: DDPGConfig, config: LibraryConfig, memory_size: int
 ) -> SkillLibrary:
     """A library of the right shapes and zeros (the template that loading fills in)."""
-    from mjx_skills.fit import init_models
+    from mjx_skills.skills.fit import init_models
 
     K, obs_dim, goal_dim = len(names), 25, 3
     keys = jax.random.split(jax.random.PRNGKey(0), K)

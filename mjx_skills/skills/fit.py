@@ -20,10 +20,11 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from mjx_skills import ddpg, optim
+from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, LibraryConfig
+from mjx_skills.core import optim
+from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
 from mjx_skills.envs.baxter import BaxterEnv
-from mjx_skills.nets import CoarseDynamics, SuccessClassifier
 
 NORM_FLOOR = 1e-3
 """Smallest std used to normalise a model input or output dimension (m, rad, m/s)."""

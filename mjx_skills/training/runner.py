@@ -20,11 +20,11 @@ import jax
 import numpy as np
 
 from mjx_skills import __version__, methods
-from mjx_skills.checkpoint import Checkpoints
 from mjx_skills.config import EnvConfig, TrainConfig, from_dict
 from mjx_skills.envs.registry import check_name
-from mjx_skills.logging import MetricsWriter, progress_bar
-from mjx_skills.train import build, committed
+from mjx_skills.training.checkpoint import Checkpoints
+from mjx_skills.training.epoch import build, committed
+from mjx_skills.training.metrics_log import MetricsWriter, progress_bar
 
 
 @dataclasses.dataclass(frozen=True)

@@ -26,7 +26,7 @@ VOLATILE = {("train", "out"), ("train", "progress"), ("train", "checkpoint_every
 
 def run_config(args) -> dict[str, Any]:
     """A `runner.RunArgs` as config.json reads back (tuples as lists; version excluded)."""
-    from mjx_skills.runner import config_dict
+    from mjx_skills.training.runner import config_dict
 
     return json.loads(json.dumps(config_dict(args)))
 
@@ -41,7 +41,7 @@ def _results_part(config: dict[str, Any]) -> dict[str, Any]:
 
 def library_provenance(config: dict[str, Any]) -> dict[str, Any] | None:
     """The commit and scenes' digest of the library a config's method reads (None: none)."""
-    from mjx_skills.library import read_manifest
+    from mjx_skills.skills.library import read_manifest
 
     for group in config.get("options", {}).values():
         if "library_dir" in group:
@@ -109,7 +109,7 @@ def stored(cell, store: Path = STORE) -> Path | None:
 
 def save(cell, run_dir: Path, store: Path = STORE) -> Path:
     """Keep a finished cell's metrics beside its definition (written whole or not at all)."""
-    from mjx_skills.library import provenance
+    from mjx_skills.skills.library import provenance
 
     where = store / cell.name
     tmp = where.with_name(f".{where.name}.partial")

@@ -29,9 +29,10 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
-from mjx_skills import ddpg, normalizer, optim
+from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig
-from mjx_skills.library import PARAM_DIM
+from mjx_skills.core import normalizer, optim
+from mjx_skills.envs.skills import PARAM_DIM
 
 SkillGoals = Callable[[jax.Array, jax.Array], jax.Array]
 """goals(params (..., K, PARAM_DIM), raw obs (..., obs_dim)) -> (..., K, goal_dim)."""

@@ -5,9 +5,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_skills import ddpg, pdqn
+from mjx_skills.agents import ddpg, mpdqn
 from mjx_skills.config import DDPGConfig
-from mjx_skills.library import LIBRARIES, PARAM_DIM, skill_envs
+from mjx_skills.envs.skills import PARAM_DIM
+from mjx_skills.skills.library import LIBRARIES, skill_envs
 
 CFG = DDPGConfig()
 NAMES = LIBRARIES["SL1"]
@@ -15,7 +16,7 @@ B = 64
 
 
 def _state_and_inputs():
-    state = pdqn.init(jax.random.PRNGKey(0), 25, 3, len(NAMES), CFG)
+    state = mpdqn.init(jax.random.PRNGKey(0), 25, 3, len(NAMES), CFG)
     k_obs, k_goal, k_par = jax.random.split(jax.random.PRNGKey(1), 3)
     obs = 0.3 * jax.random.normal(k_obs, (B, 25))
     goal = 0.3 * jax.random.normal(k_goal, (B, 3))
@@ -25,12 +26,12 @@ def _state_and_inputs():
 
 def test_each_skills_value_reads_its_own_goal_only():
     state, obs, goal, params = _state_and_inputs()
-    goals = pdqn.skill_goals(skill_envs(NAMES))
+    goals = mpdqn.skill_goals(skill_envs(NAMES))
     o, g = ddpg.normalize_inputs(state, obs, goal, CFG)
 
     def values(p):
-        return pdqn._values(
-            state.critic_params, o, g, pdqn._norm_goal(state, goals(p, obs), CFG), CFG
+        return mpdqn._values(
+            state.critic_params, o, g, mpdqn._norm_goal(state, goals(p, obs), CFG), CFG
         )
 
     base = values(params)
@@ -47,12 +48,12 @@ def test_each_skills_value_reads_its_own_goal_only():
 
 def test_choices_keep_to_the_allowed_skills_even_exploring():
     state, obs, goal, _ = _state_and_inputs()
-    goals = pdqn.skill_goals(skill_envs(NAMES))
+    goals = mpdqn.skill_goals(skill_envs(NAMES))
     allowed = jax.random.uniform(jax.random.PRNGKey(2), (B, len(NAMES))) < 0.5
     allowed = allowed.at[:, 0].set(~jnp.any(allowed[:, 1:], axis=-1) | allowed[:, 0])
     cfg = DDPGConfig(random_eps=0.5)
     for key in (None, jax.random.PRNGKey(3)):
-        skill, target, stored = pdqn.choose(state, obs, goal, allowed, goals, cfg, key)
+        skill, target, stored = mpdqn.choose(state, obs, goal, allowed, goals, cfg, key)
         assert bool(jnp.all(allowed[jnp.arange(B), skill]))
         np.testing.assert_array_equal(np.argmax(stored[:, : len(NAMES)], -1), skill)
         np.testing.assert_allclose(stored[:, len(NAMES) :], target)

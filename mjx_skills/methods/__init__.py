@@ -1,7 +1,7 @@
 """The method registry: what each learning method supplies to the one generic trainer.
 
 A method is a `Learner` (a few pure functions closed over the env and its options) and the
-option groups it adds to the command line. The trainer (`train.py`) owns the epoch:
+option groups it adds to the command line. The trainer (`training/epoch.py`) owns the epoch:
 collect episodes with `explore` -> `store` them -> `update` -> evaluate with `evaluate`.
 Read-only inputs a method needs (the skill library) arrive as `aux`, a non-donated
 argument of the jitted epoch, never as constants baked into the program.
@@ -14,10 +14,10 @@ from collections.abc import Callable
 from typing import Any
 
 from mjx_skills.config import DDPGConfig, PASConfig, SearchConfig
-from mjx_skills.ddpg_her import make_ddpg_her
-from mjx_skills.learner import Learner
-from mjx_skills.pas import make_pas
-from mjx_skills.sl import make_ddpg_her_sl
+from mjx_skills.core.learner import Learner
+from mjx_skills.methods.ddpg_her import make_ddpg_her
+from mjx_skills.methods.ddpg_her_sl import make_ddpg_her_sl
+from mjx_skills.methods.pas import make_pas
 
 
 @dataclasses.dataclass(frozen=True)
@@ -38,7 +38,7 @@ class Method:
 
 def load_library(group: SearchConfig | PASConfig) -> Any:
     """The library an option group names (`library`: SL1, SL2, SL3; `library_dir`)."""
-    from mjx_skills import library
+    from mjx_skills.skills import library
 
     full, _ = library.load(group.library_dir)
     library.skill_envs(full.names)  # built now, not first inside a traced function
@@ -114,7 +114,7 @@ METHODS: dict[str, Method] = {
 
 THESIS_LIBRARY = "experiments/skill_library_thesis"
 """The thesis preset's library: models and memories anchored at the start state
-(`python -m mjx_skills.skills --anchor start --out experiments/skill_library_thesis`)."""
+(`python -m mjx_skills.build_library --anchor start --out experiments/skill_library_thesis`)."""
 
 PRESETS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
     "default": {},

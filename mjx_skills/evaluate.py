@@ -1,6 +1,6 @@
 """Success of a trained run's final checkpoint on fresh episodes, on any physics backend.
 
-python -m mjx_skills.eval RUN_DIR [--episodes 50] [--physics native|mjx|gym] [--seed 10000]
+python -m mjx_skills.evaluate RUN_DIR [--episodes 50] [--physics native|mjx|gym] [--seed 10000]
 
 Prints one JSON line per trained seed ({"seed", "success", "distance", "episodes",
 "physics", "epoch", "run_eval_success"}), then one summary line with the means over seeds.
@@ -25,14 +25,16 @@ from typing import Any
 import jax
 import numpy as np
 
-from mjx_skills import compile_cache, ddpg, methods
-from mjx_skills.checkpoint import Checkpoints
+from mjx_skills import methods
+from mjx_skills.agents import ddpg
 from mjx_skills.cli_args import run_parser
+from mjx_skills.core import compile_cache
+from mjx_skills.core.learner import Learner
 from mjx_skills.envs.registry import make
-from mjx_skills.learner import Learner
-from mjx_skills.logging import read_metrics
-from mjx_skills.runner import RunArgs, load_config
-from mjx_skills.train import init_carry, make_evaluate, over_seeds, seed_keys
+from mjx_skills.training.checkpoint import Checkpoints
+from mjx_skills.training.epoch import init_carry, make_evaluate, over_seeds, seed_keys
+from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.runner import RunArgs, load_config
 
 FLAT_METHODS = ("ddpg_her", "ddpg_her_sl")
 """Methods whose evaluation behaviour is the flat DDPG actor: the ones gym can replay."""
@@ -185,7 +187,7 @@ def summarize(rows: list[dict]) -> dict:
 
 
 def parse_args(argv: list[str] | None):
-    parser = run_parser("python -m mjx_skills.eval", __doc__, episodes=50)
+    parser = run_parser("python -m mjx_skills.evaluate", __doc__, episodes=50)
     parser.add_argument("--physics", choices=("native", "mjx", "gym"), default="native")
     return parser.parse_args(argv)
 

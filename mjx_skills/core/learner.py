@@ -1,4 +1,4 @@
-"""The contract between a learning method and the one trainer (`train.py`)."""
+"""The contract between a learning method and the one trainer (`training/epoch.py`)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 
-from mjx_skills import rollout
-from mjx_skills.replay import ReplayState
+from mjx_skills.core import rollout
+from mjx_skills.core.replay import ReplayState
 
 
 class Learner(NamedTuple):
