@@ -29,7 +29,6 @@ from tqdm.auto import tqdm
 
 from mjx_skills.config import DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
 from mjx_skills.core import compile_cache, rollout
-from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
 from mjx_skills.envs.registry import SKILLS
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.skills import fit, library
@@ -115,7 +114,7 @@ def fit_library(names, agents, data, config: LibraryConfig, progress: bool):
     s0, goal, s_T, success = stack("s0"), stack("goal"), stack("s_T"), stack("success")
     obs_dim = s0.shape[-1]
     x = np.concatenate([s0, goal], axis=-1)
-    delta = s_T - np.asarray(library.anchor_point(config.anchor, s0, goal))
+    delta = s_T - np.asarray(library.anchor_point(envs[0].layout, config.anchor, s0, goal))
     train_w = np.ones((K, N), np.float32)
     train_w[:, N - n_val :] = 0.0
     in_stats = [fit.standardize(x[k], train_w[k]) for k in range(K)]
@@ -190,7 +189,7 @@ def evaluate_models(lib: library.SkillLibrary, x, s_T, success) -> dict[str, dic
     for k, (name, env) in enumerate(zip(lib.names, lib.envs, strict=True)):
         obs, goal = jnp.asarray(x[k, :, :obs_dim]), jnp.asarray(x[k, :, obs_dim:])
         ids = jnp.full((obs.shape[0],), k, jnp.int32)
-        pos = OBS_OBJECT if env.goal_is_object else OBS_GRIP
+        pos = env.layout["object" if env.goal_is_object else "grip"]
         ok = success[k].astype(bool)
         model = np.asarray(jax.jit(lib.next_state)(ids, obs, goal))
         memory = np.concatenate([np.asarray(jax.jit(lib.recall)(ids[i : i + 512], obs[i : i + 512], goal[i : i + 512]))

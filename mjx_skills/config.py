@@ -111,14 +111,19 @@ class DDPGConfig:
         )
 
 
-PHYSICS = ("auto", "native", "mjx")
+Physics = Literal["auto", "native", "mjx"]
+PHYSICS = typing.get_args(Physics)
+"""The physics backends (`envs.physics.make_backend`): the names are defined here, once."""
+Library = Literal["SL1", "SL2", "SL3"]
+LIBRARIES = typing.get_args(Library)
+"""The thesis's skill libraries by name (their skills: `skills.library.LIBRARIES`)."""
 
 
 @dataclasses.dataclass(frozen=True)
 class EnvConfig:
     """Simulation and control settings shared by every Baxter env."""
 
-    physics: Literal["auto", "native", "mjx"] = "auto"
+    physics: Physics = "auto"
     """Physics backend: 'native' (MuJoCo C via mujoco.rollout, the CPU default), 'mjx'
     (accelerators) or 'auto' (native on a CPU, mjx on a GPU/TPU)."""
     timestep: float = 0.005
@@ -280,7 +285,7 @@ class LibraryConfig:
 class SearchConfig:
     """DDPG+HER+SL: look-ahead search over the skill library as exploration (thesis ch. 5)."""
 
-    library: Literal["SL1", "SL2", "SL3"] = "SL1"
+    library: Library = "SL1"
     """Skills the search may use: SL1 = transit, grasp, transfer; SL2 = grasp, transfer;
     SL3 = transit, transfer (thesis Fig. 6.4)."""
     library_dir: str = "experiments/skill_library"
@@ -352,7 +357,7 @@ class SearchConfig:
         _check(0.0 <= lo <= hi, "transit_height", "need 0 <= low <= high")
         _check(0.0 <= self.waypoint_share <= 1.0, "waypoint_share", "must lie in [0, 1]")
         _check(0.0 < self.search_chunk <= 1.0, "search_chunk", "must lie in (0, 1]")
-        _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")
+        _check(self.library in LIBRARIES, "library", f"valid: {', '.join(LIBRARIES)}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -360,7 +365,7 @@ class PASConfig:
     """PAS / MPAS: a parameterized-action-space meta-controller over the skill library
     (thesis ch. 4). Its DDPG hyperparameters are the `--ddpg.*` group."""
 
-    library: Literal["SL1", "SL2", "SL3"] = "SL1"
+    library: Library = "SL1"
     """Skills the meta-controller chooses from (as for DDPG+HER+SL)."""
     library_dir: str = "experiments/skill_library"
     """Where the built library is (`make skills` writes it there; the thesis preset's,
@@ -389,7 +394,7 @@ class PASConfig:
 
     def __post_init__(self) -> None:
         _check_numbers(self)
-        _check(self.library in ("SL1", "SL2", "SL3"), "library", "valid: SL1, SL2, SL3")
+        _check(self.library in LIBRARIES, "library", f"valid: {', '.join(LIBRARIES)}")
         _check(self.critic in ("joint", "per_skill"), "critic", "valid: joint, per_skill")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         for name in ("skill_steps", "updates_per_cycle"):

@@ -90,8 +90,6 @@ def record_episodes(
 ) -> tuple[np.ndarray, ...]:
     """Trained seed `run_seed`'s evaluation episodes of a `mjx_skills.evaluate.TrainedRun` -> joint positions
     (n, T + 1, nq), grip positions (n, T + 1, 3) and final success (n,)."""
-    from mjx_skills.envs.baxter import OBS_GRIP
-
     qpos_of = run.env.backend.qpos
 
     def fn(agent, aux, key):
@@ -106,7 +104,7 @@ def record_episodes(
         recording = rollout.Behaviour(init=behaviour.init, step=step)
         recorded, final, records = rollout.run_episodes(run.env, recording, key, episodes)
         qpos = jnp.concatenate([records["render_qpos"], qpos_of(final.physics)[:, None]], 1)
-        return qpos, recorded.obs[..., OBS_GRIP], final.metrics["success"]
+        return qpos, recorded.obs[..., run.env.layout["grip"]], final.metrics["success"]
 
     n_seeds = jax.tree.leaves(run.agents)[0].shape[0]
     if not 0 <= run_seed < n_seeds:

@@ -220,3 +220,30 @@ def test_normalizer_eps_floor_and_clip():
     # Leading axes are flattened.
     state3 = normalizer.update(normalizer.init(2), x.reshape(5, 10, 2))
     chex.assert_trees_all_close(state3, state)
+
+
+def test_the_losses_on_known_values():
+    """The critic's TD loss, the actor's -Q + L2 loss, and the inverting-gradients loss
+    (value -mean Q, gradient -invert_gradients(dQ/da, a) / B) on hand-computed values."""
+    q, y = jnp.array([1.0, -2.0, 0.5]), jnp.array([0.0, 0.0, 1.5])
+    np.testing.assert_allclose(ddpg.td_loss(q, y), (1.0 + 4.0 + 1.0) / 3, rtol=1e-6)
+
+    pi = jnp.array([[0.5, -1.0], [0.0, 0.2]])
+    q_pi = jnp.array([-3.0, -1.0])
+    expected = 2.0 + 0.5 * (0.25 + 1.0 + 0.0 + 0.04) / 4
+    np.testing.assert_allclose(ddpg.actor_loss(q_pi, pi, 0.5), expected, rtol=1e-6)
+
+    # Q(a) = sum over the batch of w . a: dQ/da = w for every row.
+    w = jnp.array([2.0, -1.0])
+    q_of = lambda a: jnp.sum(a @ w)
+    a = jnp.array([[0.5, 0.5], [-0.5, 0.9]])
+    value, grad = jax.value_and_grad(ddpg.inverting_actor_loss, argnums=1)(q_of, a)
+    np.testing.assert_allclose(value, -q_of(a) / 2, rtol=1e-6)
+    # Up (w > 0): scaled by (1 - a) / 2; down (w < 0): by (a + 1) / 2; then -1/B.
+    room = jnp.array([[(1 - 0.5) / 2, (0.5 + 1) / 2], [(1 + 0.5) / 2, (0.9 + 1) / 2]])
+    np.testing.assert_allclose(grad, -(w * room) / 2, rtol=1e-6)
+    # A bound passed (a > 1 pushed up) turns the step back inside.
+    _, past = jax.value_and_grad(ddpg.inverting_actor_loss, argnums=1)(
+        q_of, jnp.array([[1.5, 0.0]])
+    )
+    assert float(past[0, 0]) > 0  # descending the loss lowers a[0, 0] back towards 1

@@ -204,6 +204,7 @@ def test_library_methods_compile_once_repeat_and_resume(case, tmp_path):
     (["mpas", "--updates-per-cycle", "50"], "--pas.updates-per-cycle"),
     (["pas", "--ddpg.relabel-prob", "0.5"], "--pas.relabel-prob"),
     (["mpas", "--ddpg.her-strategy", "final"], "--pas.hindsight"),
+    (["pas", "--pas.relabel-prob", "0.5"], "--pas.hindsight, which is off"),
 ])  # fmt: skip
 def test_an_option_the_method_does_not_read_is_refused(argv, flag, tmp_path):
     """PAS / MPAS wrote these to config.json and did nothing with them."""

@@ -13,7 +13,7 @@ from flax import struct
 
 from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, SearchConfig
-from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
+from mjx_skills.envs.baxter import LAYOUT, OBS_GRIP, OBS_OBJECT
 from mjx_skills.methods import ddpg_her_sl
 from mjx_skills.skills import lookahead, stalls
 from mjx_skills.skills.library import SkillLibrary, consistent, skill_envs
@@ -42,6 +42,10 @@ class KnownLibrary:
     def envs(self):
         return skill_envs(self.names)
 
+    @property
+    def layout(self):
+        return LAYOUT
+
     def success_prob(self, skill, obs, goal):
         bad = jnp.isin(skill, jnp.array(self.pruned or (-1,)))
         return jnp.where(bad, 0.0, 1.0)
@@ -53,7 +57,7 @@ class KnownLibrary:
         moved = obs.at[:, OBS_GRIP].set(goal)
         carry = (skill == self.names.index("transfer"))[:, None]
         moved = moved.at[:, OBS_OBJECT].set(jnp.where(carry, goal, obs[:, OBS_OBJECT]))
-        return consistent(obs, moved)
+        return consistent(LAYOUT, moved)
 
     recall = next_state
     allowed = SkillLibrary.allowed  # the real rule: transfer only with the cube in hand
@@ -76,7 +80,7 @@ def states(n: int, held: bool) -> tuple[jax.Array, jax.Array]:
     obs[:, 9:11] = 0.012 if held else 0.02  # fingers closed on the cube / open
     # Goals at least 8 cm above the cube's centre: the task is never solved at the start.
     goal = rng.uniform([0.55, -0.4, 0.12], [0.8, 0.0, 0.2], (n, 3)).astype(np.float32)
-    return consistent(jnp.asarray(obs), jnp.asarray(obs)), jnp.asarray(goal)
+    return consistent(LAYOUT, jnp.asarray(obs)), jnp.asarray(goal)
 
 
 @pytest.fixture(scope="module")
@@ -161,7 +165,9 @@ def test_an_all_pruned_tree_says_so_and_the_policy_acts(env):
     state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
     ps, action, record = beh.step(beh.init(jax.random.PRNGKey(2), 6), jax.random.PRNGKey(3), state)
     assert (
-        not np.any(ps.active) and np.all(record["all_pruned"]) and not np.any(record["skill_calls"])
+        not np.any(ps.run.active)
+        and np.all(record["all_pruned"])
+        and not np.any(record["skill_calls"])
     )
     assert not np.allclose(action, 0.5)  # the learned policy's noisy action, not a skill's
 
@@ -185,7 +191,7 @@ def test_the_behaviour_commits_for_at_most_w_steps_and_follows_eps(env):
             ps, _, record = step(ps, jax.random.PRNGKey(100 + t), state)
             calls.append(np.asarray(record["skill_calls"]))
             driven.append(np.asarray(record["skill_driven"]))
-            assert np.all(np.asarray(ps.steps)[np.asarray(ps.active)] <= w)
+            assert np.all(np.asarray(ps.run.steps)[np.asarray(ps.run.active)] <= w)
         calls = np.array(calls)
         if eps == 1.0:  # a skill at once, replaced exactly every w steps
             np.testing.assert_array_equal(calls[::w], 1)
@@ -267,7 +273,7 @@ def test_a_solved_task_holds_still(env):
         agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg, DDPGConfig()
     )
     ps, action, record = beh.step(beh.init(jax.random.PRNGKey(0), 4), jax.random.PRNGKey(1), state)
-    assert np.all(record["holds"]) and not np.any(record["searches"]) and not np.any(ps.active)
+    assert np.all(record["holds"]) and not np.any(record["searches"]) and not np.any(ps.run.active)
     np.testing.assert_allclose(action[:, :3], 0.0)
     np.testing.assert_allclose(action[:, 3], np.where(np.asarray(env.grasped(obs)), -1.0, 1.0))
 
@@ -290,10 +296,11 @@ def test_segments_near_an_obstacle_are_blocked_and_grasp_never_is():
     )  # fmt: skip
     skill = jnp.full((4,), TRANSFER)
     np.testing.assert_array_equal(
-        stalls.blocked(points, NAMES, skill, obs, goal, 0.03), [True, True, False, False]
+        stalls.blocked(points, NAMES, skill, obs[:, OBS_GRIP], goal, 0.03),
+        [True, True, False, False],
     )
     grasp = jnp.full((4,), NAMES.index("grasp"))
-    assert not np.any(stalls.blocked(points, NAMES, grasp, obs, goal, 0.03))
+    assert not np.any(stalls.blocked(points, NAMES, grasp, obs[:, OBS_GRIP], goal, 0.03))
 
 
 def test_the_ring_buffer_keeps_the_last_points_of_envs_that_stalled():
@@ -325,8 +332,8 @@ def test_a_stalled_transfer_ends_and_the_search_stops_planning_through_it(env):
         step = jax.jit(beh.step)
         ps = beh.init(jax.random.PRNGKey(0), 64)
         ps, _, rec = step(ps, jax.random.PRNGKey(1), state)
-        assert np.all(rec["skill_calls"]) and np.all(np.asarray(ps.skill) == TRANSFER)
-        first = np.asarray(ps.goal)
+        assert np.all(rec["skill_calls"]) and np.all(np.asarray(ps.run.skill) == TRANSFER)
+        first = np.asarray(ps.run.goal)
         ps, _, rec = step(ps, jax.random.PRNGKey(2), state)
         assert not np.any(rec["stalls"])  # one step says nothing yet
         ps, _, rec = step(ps, jax.random.PRNGKey(3), state)
@@ -342,7 +349,7 @@ def test_a_stalled_transfer_ends_and_the_search_stops_planning_through_it(env):
         else:
             assert started.sum() >= 8  # waypoints heading away from it (24 of 64 here)
             assert np.all(np.asarray(rec["all_pruned"])[~started])
-            near = stalls.segment_distance(ps.obstacles, obs[:, OBS_GRIP], ps.goal).min(-1)
+            near = stalls.segment_distance(ps.obstacles, obs[:, OBS_GRIP], ps.run.goal).min(-1)
             assert np.all(np.asarray(near)[started] >= 0.03)
 
 
@@ -501,16 +508,16 @@ def brute_force(lib, cfg, env, obs, goal, key) -> list[tuple[float, int, np.ndar
     return out
 
 
-@pytest.mark.parametrize(("height", "lookahead", "leaf"), [
+@pytest.mark.parametrize(("height", "next_from", "leaf"), [
     (2, "model", "distance"), (3, "model", "distance"), (3, "memory", "reward"),
 ])  # fmt: skip
 def test_the_tree_search_equals_a_brute_force_enumeration_of_every_path(
-    env, height, lookahead, leaf
+    env, height, next_from, leaf
 ):
     """Utilities, discounting at depth, memory vs model next states and both leaf values,
     against every path enumerated by hand; an edge the classifier prunes never leads to the
     chosen path, even where one of its descendants would score best."""
-    cfg = SearchConfig(branching=3, height=height, lookahead_next=lookahead, leaf_value=leaf)
+    cfg = SearchConfig(branching=3, height=height, lookahead_next=next_from, leaf_value=leaf)
     lib = PruneByGoalLibrary()
     obs, goal = states(6, held=False)
     held, _ = states(6, held=True)

@@ -97,3 +97,14 @@ def test_layers_import_one_way():
     commands = {m for m in paths if _layer(m) == len(LAYERS)}
     assert commands == {f"mjx_skills.{c}" for c in ("train", "build_library", "sweep", "evaluate",
                                                      "render", "report", "cli_args")}  # fmt: skip
+
+
+def test_only_envs_know_the_observation_offsets():
+    """Outside `envs/` the observation is read through the env's declared `ObsLayout`, so a
+    task with another observation cannot be misread silently by the library or a method."""
+    offenders = sorted(
+        str(p.relative_to(PACKAGE))
+        for p in PACKAGE.rglob("*.py")
+        if p.parent.name != "envs" and "OBS_" in p.read_text()
+    )
+    assert not offenders, offenders

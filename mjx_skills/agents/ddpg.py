@@ -7,6 +7,8 @@ All inputs are normalised with the state's running statistics before the network
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import jax
 import jax.numpy as jnp
 import optax
@@ -211,6 +213,28 @@ def update(
     return jax.lax.scan(lambda s, nbatch: _step(s, nbatch, config), state, nbatches)
 
 
+def td_loss(q: jax.Array, y: jax.Array) -> jax.Array:
+    """The critic's loss: the mean squared TD error of q (B,) against targets y (B,)."""
+    return jnp.mean((q - y) ** 2)
+
+
+def actor_loss(q_pi: jax.Array, pi: jax.Array, action_l2: float) -> jax.Array:
+    """DDPG's actor loss: -mean Q(s, g, pi) over the batch q_pi (B,), plus `action_l2` times
+    the mean squared action pi (B, act_dim), which keeps actions off tanh's flat tails."""
+    return -jnp.mean(q_pi) + action_l2 * jnp.mean(pi**2)
+
+
+def inverting_actor_loss(q_of: Callable[[jax.Array], jax.Array], pi: jax.Array) -> jax.Array:
+    """The actor loss of actions bounded by inverting gradients (Hausknecht & Stone 2016): its
+    gradient through pi (B, act_dim) is -invert_gradients(dQ/da, a) / B at a = pi, so the
+    actor ascends Q while each step shrinks towards the bound it approaches; its value is
+    -mean Q. q_of(a (B, act_dim)) -> the sum of Q over the batch."""
+    a = jax.lax.stop_gradient(pi)
+    dq = invert_gradients(jax.grad(q_of)(a), a) / a.shape[0]
+    surrogate = -jnp.sum(dq * pi)
+    return surrogate - jax.lax.stop_gradient(surrogate + q_of(a) / a.shape[0])
+
+
 def _step(
     state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig
 ) -> tuple[DDPGState, dict[str, jax.Array]]:
@@ -220,33 +244,26 @@ def _step(
 
     def critic_loss_fn(params: Params) -> tuple[jax.Array, jax.Array]:
         q = critic.apply(params, o, g, action)
-        return jnp.mean((q - y) ** 2), q
+        return td_loss(q, y), q
 
-    critic_params, critic_opt_state, critic_loss, q = optim.gradient_step(
+    critic_params, critic_opt_state, critic_value, q = optim.gradient_step(
         critic_loss_fn, state.critic_params, state.critic_opt_state, critic_opt(config)
     )
 
     def actor_loss_fn(params: Params) -> tuple[jax.Array, None]:
         pi = actor.apply(params, o, g)
         if state.bounds == "invert":
-            # Ascend the inverted dQ/da through the actor: the surrogate's gradient is
-            # -dQ/da' . dpi/dtheta, its value is reported as -Q.
             q_of = lambda a: jnp.sum(critic.apply(critic_params, o, g, a))
-            a = jax.lax.stop_gradient(pi)
-            dq = invert_gradients(jax.grad(q_of)(a), a) / a.shape[0]
-            surrogate = -jnp.sum(dq * pi)
-            return surrogate - jax.lax.stop_gradient(surrogate + q_of(a) / a.shape[0]), None
-        q_pi = critic.apply(critic_params, o, g, pi)
-        # The L2 term keeps actions off tanh's flat saturated tails.
-        return -jnp.mean(q_pi) + config.action_l2 * jnp.mean(pi**2), None
+            return inverting_actor_loss(q_of, pi), None
+        return actor_loss(critic.apply(critic_params, o, g, pi), pi, config.action_l2), None
 
-    actor_params, actor_opt_state, actor_loss, _ = optim.gradient_step(
+    actor_params, actor_opt_state, actor_value, _ = optim.gradient_step(
         actor_loss_fn, state.actor_params, state.actor_opt_state, actor_opt(config)
     )
     new_state = advance(
         state, actor_params, critic_params, actor_opt_state, critic_opt_state, config
     )
-    metrics = {"critic_loss": critic_loss, "actor_loss": actor_loss, "q_mean": jnp.mean(q)}
+    metrics = {"critic_loss": critic_value, "actor_loss": actor_value, "q_mean": jnp.mean(q)}
     return new_state, metrics
 
 

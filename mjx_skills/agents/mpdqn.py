@@ -130,7 +130,7 @@ def _step(state: ddpg.DDPGState, nb, goals: SkillGoals, config: DDPGConfig):
 
     def critic_loss_fn(params):
         q = critic.apply(params, o, g, action)
-        return jnp.mean((q - y) ** 2), q
+        return ddpg.td_loss(q, y), q
 
     critic_params, critic_opt, critic_loss, q = optim.gradient_step(
         critic_loss_fn, state.critic_params, state.critic_opt_state, ddpg.critic_opt(config)
@@ -140,7 +140,7 @@ def _step(state: ddpg.DDPGState, nb, goals: SkillGoals, config: DDPGConfig):
     def actor_loss_fn(params):
         pi, _, norm = _all_goals(state, params, nb["raw_obs"], o, g, goals, config)
         q_pi = jnp.sum(weight * _values(critic_params, o, g, norm, config), -1)
-        return -jnp.mean(q_pi) + config.action_l2 * jnp.mean(pi**2), None
+        return ddpg.actor_loss(q_pi, pi, config.action_l2), None
 
     actor_params, actor_opt, actor_loss, _ = optim.gradient_step(
         actor_loss_fn, state.actor_params, state.actor_opt_state, ddpg.actor_opt(config)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any, Generic, NamedTuple, TypeVar
 
 import jax
 import jax.numpy as jnp
@@ -11,8 +11,13 @@ import jax.numpy as jnp
 from mjx_skills.core import rollout
 from mjx_skills.core.replay import ReplayState
 
+AgentT = TypeVar("AgentT")
+"""The agent's state: networks, optimisers, normalisers (e.g. `agents.ddpg.DDPGState`)."""
+AuxT = TypeVar("AuxT")
+"""The read-only input of the jitted epoch: the skill library, or None."""
 
-class Learner(NamedTuple):
+
+class Learner(NamedTuple, Generic[AgentT, AuxT]):
     """init(key) -> agent
     explore(agent, aux, epoch) -> Behaviour     training behaviour (epoch: () int32, 0-based)
     evaluate(agent, aux) -> Behaviour           deterministic evaluation behaviour
@@ -23,11 +28,11 @@ class Learner(NamedTuple):
     summarize(records) -> metrics                the behaviour's records (n, T, ...) of a
         cycle -> scalars logged as explore_*; default: the mean of each record."""
 
-    init: Callable[[jax.Array], Any]
-    explore: Callable[[Any, Any, jax.Array], rollout.Behaviour]
-    evaluate: Callable[[Any, Any], rollout.Behaviour]
+    init: Callable[[jax.Array], AgentT]
+    explore: Callable[[AgentT, AuxT, jax.Array], rollout.Behaviour]
+    evaluate: Callable[[AgentT, AuxT], rollout.Behaviour]
     store: Callable[[rollout.Episode, dict], Any]
-    update: Callable[[Any, ReplayState, Any, jax.Array], tuple[Any, dict[str, jax.Array]]]
+    update: Callable[[AgentT, ReplayState, Any, jax.Array], tuple[AgentT, dict[str, jax.Array]]]
     summarize: Callable[[dict[str, jax.Array]], dict[str, jax.Array]] | None = None
 
 

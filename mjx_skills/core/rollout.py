@@ -19,6 +19,8 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
+from mjx_skills.core.types import GoalEnv
+
 
 @struct.dataclass
 class Episode:
@@ -89,7 +91,7 @@ def stateless(policy: Policy) -> Behaviour:
 
 
 def run_episodes(
-    env: Any, behaviour: Behaviour, key: jax.Array, n: int
+    env: GoalEnv, behaviour: Behaviour, key: jax.Array, n: int
 ) -> tuple[Episode, Any, dict[str, jax.Array]]:
     """Reset n envs and run `env.episode_length` steps of `behaviour`.
 
@@ -120,7 +122,7 @@ def run_episodes(
     return episodes, final, jax.tree.map(swap, records)
 
 
-def example_episode(env: Any) -> Episode:
+def example_episode(env: GoalEnv) -> Episode:
     """Shapes and dtypes of one episode of `env` (no batch axis), without running anything:
     the replay buffer's layout."""
     episodes = jax.eval_shape(

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from mjx_skills.config import EnvConfig
-from mjx_skills.envs.base import State
+from mjx_skills.core.types import ObsLayout, State
 from mjx_skills.envs.physics import PhysicsState, make_backend
 
 XML_DIR = Path(__file__).resolve().parents[2] / "xml"
@@ -32,6 +32,8 @@ OBS_OBJECT = slice(3, 6)
 OBS_REL = slice(6, 9)  # object - grip
 OBS_FINGERS = slice(9, 11)
 OBS_GRIP_VEL = slice(20, 23)
+LAYOUT = ObsLayout(size=25, grip=(0, 3), object=(3, 6), rel=(6, 9), fingers=(9, 11))
+"""The same layout, as the env declares it to the library, the search and PAS."""
 
 FINGER_OPEN = 0.020833  # finger travel in m (each); ctrl = -0.02 squeezes past closed.
 FINGER_CLOSED_CTRL = -0.02
@@ -95,6 +97,8 @@ class BaxterEnv:
     """Whether the achieved goal is the object's position (else the gripper's)."""
     action_dim = 4
     goal_dim = 3
+    layout: ObsLayout = LAYOUT
+    """Where the gripper, the object and their relation lie in the observation."""
 
     def __init__(self, config: EnvConfig | None = None):
         self.config = config = config or EnvConfig()

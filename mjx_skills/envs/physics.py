@@ -25,6 +25,7 @@ import numpy as np
 from flax import struct
 from mujoco import rollout
 
+from mjx_skills.config import PHYSICS
 from mjx_skills.core.workers import usable_cores
 
 # mujoco.mjx prints "Failed to import warp" when its optional Warp backend is absent, as it
@@ -206,13 +207,10 @@ class NativeBackend:
         return state.replace(data=data)
 
 
-BACKENDS = ("auto", "native", "mjx")
-
-
 def make_backend(model: mujoco.MjModel, physics: str, n_threads: int = 0) -> PhysicsBackend:
     """`physics`: 'native', 'mjx', or 'auto' (native on a CPU, mjx on a GPU/TPU)."""
-    if physics not in BACKENDS:
-        raise ValueError(f"unknown physics backend {physics!r}; valid: {', '.join(BACKENDS)}")
+    if physics not in PHYSICS:
+        raise ValueError(f"unknown physics backend {physics!r}; valid: {', '.join(PHYSICS)}")
     if physics == "auto":
         physics = "native" if jax.default_backend() == "cpu" else "mjx"
     if physics == "mjx":

@@ -34,6 +34,16 @@ class Method:
     unread: dict[str, str] = dataclasses.field(default_factory=dict)
     """Options on this method's command line that it does not read ("group.field", "train"
     for the un-prefixed ones) -> the option it reads instead. Setting one is an error."""
+    unread_unless: dict[str, str] = dataclasses.field(default_factory=dict)
+    """Options it reads only while a switch of the same group is on ("group.field" ->
+    "switch"); setting one with the switch off is an error."""
+
+    def unread_now(self, options: dict[str, Any]) -> dict[str, str]:
+        """The options this method does not read with these option groups -> why."""
+        off = {path: f"--{path.split('.')[0]}.{switch.replace('_', '-')}, which is off"
+               for path, switch in self.unread_unless.items()
+               if not getattr(options[path.split(".")[0]], switch)}  # fmt: skip
+        return {**self.unread, **off}
 
 
 def load_library(group: SearchConfig | PASConfig) -> Any:
@@ -53,6 +63,11 @@ PAS_UNREAD = {
 """PAS / MPAS train the meta-controller with their own update count and hindsight."""
 
 
+def library_group(method: str) -> str | None:
+    """The option group of `method` that names its skill library (None: it has none)."""
+    return next((g for g, opt in get(method).options.items() if hasattr(opt, "library")), None)
+
+
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
     """ValueError naming any option `method` does not read that differs from its default."""
     from mjx_skills.config import TrainConfig
@@ -61,12 +76,14 @@ def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
     groups = {"train": (train, TrainConfig())} | {
         g: (options[g], spec.options[g]) for g in options if g in spec.options
     }
-    for path, instead in spec.unread.items():
+    full = {g: options.get(g, spec.options[g]) for g in spec.options}
+    for path, instead in spec.unread_now(full).items():
         group, field = path.split(".")
         given, default = groups[group]
         if getattr(given, field) != getattr(default, field):
             flag = ("--" if group == "train" else f"--{group}.") + field.replace("_", "-")
-            raise ValueError(f"{method} does not read {flag} (it reads {instead} instead); "
+            why = instead if "off" in instead else f"it reads {instead} instead"
+            raise ValueError(f"{method} does not read {flag} ({why}); "
                              f"leave {flag} at its default {getattr(default, field)!r}")  # fmt: skip
 
 
@@ -95,6 +112,7 @@ METHODS: dict[str, Method] = {
             needs_library=True,
             load_aux=lambda options: load_library(options["pas"]),
             unread=PAS_UNREAD,
+            unread_unless={"pas.relabel_prob": "hindsight"},
         )
         for name, description in (
             (

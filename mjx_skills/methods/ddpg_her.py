@@ -2,19 +2,19 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import jax
 import jax.numpy as jnp
 
 from mjx_skills.agents import ddpg as ddpg_agent
+from mjx_skills.agents.ddpg import DDPGState
 from mjx_skills.config import DDPGConfig, TrainConfig
 from mjx_skills.core import her, rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.replay import ReplayState
+from mjx_skills.core.types import GoalEnv
 
 
-def make_ddpg_her(env: Any, train: TrainConfig, ddpg: DDPGConfig) -> Learner:
+def make_ddpg_her(env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig) -> Learner[DDPGState, None]:
     """Flat DDPG + HER: Gaussian / uniform exploration around the policy, HER relabelling."""
 
     def init(key: jax.Array) -> ddpg_agent.DDPGState:
@@ -38,7 +38,7 @@ def her_update(
     buffer: ReplayState,
     fresh: rollout.Episode,
     key: jax.Array,
-    env: Any,
+    env: GoalEnv,
     n_updates: int,
     config: DDPGConfig,
 ) -> tuple[ddpg_agent.DDPGState, dict[str, jax.Array]]:

@@ -13,32 +13,25 @@ search's place: the upper bound of what any explorer can give this learner.
 
 from __future__ import annotations
 
-from typing import Any
-
 import jax
 import jax.numpy as jnp
 from flax import struct
 
 from mjx_skills.agents import ddpg
+from mjx_skills.agents.ddpg import DDPGState
 from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.core import rollout
 from mjx_skills.core.learner import Learner
-from mjx_skills.envs.baxter import OBS_GRIP
+from mjx_skills.core.types import GoalEnv
 from mjx_skills.methods.ddpg_her import make_ddpg_her
-from mjx_skills.skills import lookahead, stalls
+from mjx_skills.skills import execution, lookahead, stalls
 from mjx_skills.skills.library import SkillLibrary
 
 
 @struct.dataclass
 class ExploreState:
-    active: jax.Array
-    """(B,) bool: a searched skill drives the env."""
-    skill: jax.Array
-    """(B,) int32 its index in the library."""
-    goal: jax.Array
-    """(B, 3) its goal."""
-    steps: jax.Array
-    """(B,) int32 steps it has run."""
+    run: execution.Running
+    """The searched skill that drives the env, if any."""
     last_grip: jax.Array
     """(B, 3) the gripper before the last step (stall detection)."""
     obstacles: jax.Array
@@ -57,34 +50,33 @@ def make_behaviour(
     agent: ddpg.DDPGState,
     lib: SkillLibrary,
     epoch: jax.Array,
-    env: Any,
+    env: GoalEnv,
     cfg: SearchConfig,
     ddpg_config: DDPGConfig,
 ) -> rollout.Behaviour:
     eps = epsilon(cfg, epoch)
 
     def init(key, n):
-        return ExploreState(active=jnp.zeros((n,), bool), skill=jnp.zeros((n,), jnp.int32),
-                            goal=jnp.zeros((n, 3)), steps=jnp.zeros((n,), jnp.int32),
-                            last_grip=jnp.zeros((n, 3)),
+        return ExploreState(run=execution.idle(n), last_grip=jnp.zeros((n, 3)),
                             obstacles=stalls.empty(n, cfg.stall_memory),
                             stalls=jnp.zeros((n,), jnp.int32))  # fmt: skip
 
     def step(ps: ExploreState, key, state):
         k_coin, k_search, k_noise = jax.random.split(key, 3)
         obs, task_goal = state.obs, state.desired_goal
-        grip = obs[:, OBS_GRIP]
-        stall = jnp.zeros(ps.active.shape, bool)
+        run = ps.run
+        grip = obs[:, env.layout["grip"]]
+        stall = jnp.zeros(run.active.shape, bool)
         if cfg.stall_memory:
-            stall = stalls.stalled(lib.names, ps.skill, grip, ps.last_grip, ps.goal, ps.active,
-                                   ps.steps, cfg.stall_step,
+            stall = stalls.stalled(lib.names, run.skill, grip, ps.last_grip, run.goal, run.active,
+                                   run.steps, cfg.stall_step,
                                    cfg.stall_ahead + cfg.stall_radius)  # fmt: skip
-            obstacles, count = stalls.remember(ps.obstacles, ps.stalls, grip, ps.goal, stall,
+            obstacles, count = stalls.remember(ps.obstacles, ps.stalls, grip, run.goal, stall,
                                                cfg.stall_ahead)  # fmt: skip
             ps = ps.replace(obstacles=obstacles, stalls=count)
-        done = lib.terminated(ps.skill, obs, ps.goal) | (ps.steps >= cfg.skill_steps) | stall
-        decide = ~ps.active | done
-        explore = decide & (jax.random.uniform(k_coin, ps.steps.shape) < eps)
+        done = lib.terminated(run.skill, obs, run.goal) | (run.steps >= cfg.skill_steps) | stall
+        decide = execution.decide(run, done)
+        explore = decide & (jax.random.uniform(k_coin, run.steps.shape) < eps)
         # With the task already solved, the best plan is to do nothing: hold still, keeping
         # the gripper as it is (searching again would move the cube off the goal).
         held = env.grasped(obs)
@@ -96,34 +88,36 @@ def make_behaviour(
         found = lookahead.search_where(lib, cfg, env, explore, obs, task_goal, k_search,
                                     ps.obstacles if cfg.stall_memory else None)  # fmt: skip
         start = explore & ~found.all_pruned
-        active = jnp.where(decide, start, ps.active)
-        skill = jnp.where(start, found.skill, ps.skill)
-        goal = jnp.where(start[:, None], found.goal, ps.goal)
-        steps = jnp.where(start, 0, ps.steps) + 1
+        run = execution.advance(run, decide, start, found.skill, found.goal)
         own = ddpg.explore(agent, k_noise, obs, task_goal, ddpg_config)
-        action = jnp.where(active[:, None], lib.policy_action(skill, obs, goal), own)
+        skill_action = lib.policy_action(run.skill, obs, run.goal)
+        action = jnp.where(run.active[:, None], skill_action, own)
         still = jnp.concatenate(
             [jnp.zeros_like(obs[:, :3]), jnp.where(held, -1.0, 1.0)[:, None]], -1
         )
         action = jnp.where(hold[:, None], still, action)
         record = {
             "skill_calls": start.astype(jnp.int32),
-            "skill_driven": active,
+            "skill_driven": run.active,
             "holds": hold,
             "searches": explore,
             "all_pruned": explore & found.all_pruned,
-            "eps": jnp.broadcast_to(eps, active.shape),
+            "eps": jnp.broadcast_to(eps, run.active.shape),
         }
         if cfg.stall_memory:
             record["stalls"] = stall
-        ps = ps.replace(active=active, skill=skill, goal=goal, steps=steps, last_grip=grip)
+        ps = ps.replace(run=run, last_grip=grip)
         return ps, action, record
 
     return rollout.Behaviour(init=init, step=step)
 
 
 def make_scripted_behaviour(
-    agent: ddpg.DDPGState, epoch: jax.Array, env: Any, cfg: SearchConfig, ddpg_config: DDPGConfig
+    agent: ddpg.DDPGState,
+    epoch: jax.Array,
+    env: GoalEnv,
+    cfg: SearchConfig,
+    ddpg_config: DDPGConfig,
 ) -> rollout.Behaviour:
     """The oracle explorer: the scripted controller's action with probability eps per step,
     else the learned policy plus noise."""
@@ -142,8 +136,8 @@ def make_scripted_behaviour(
 
 
 def make_ddpg_her_sl(
-    env: Any, train: TrainConfig, ddpg: DDPGConfig, search: SearchConfig
-) -> Learner:
+    env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig, search: SearchConfig
+) -> Learner[DDPGState, SkillLibrary]:
     """DDPG+HER's learner with the look-ahead explorer; `aux` is the SkillLibrary. (The
     parameters are named after the method's option groups, `--ddpg.*` and `--search.*`.)"""
     base = make_ddpg_her(env, train, ddpg)

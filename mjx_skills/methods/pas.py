@@ -23,29 +23,19 @@ fixes one, so PAS differs from MPAS by hindsight alone.
 
 from __future__ import annotations
 
-from typing import Any
-
 import jax
 import jax.numpy as jnp
 from flax import struct
 
 from mjx_skills.agents import ddpg, mpdqn
+from mjx_skills.agents.ddpg import DDPGState
 from mjx_skills.config import DDPGConfig, PASConfig, TrainConfig
 from mjx_skills.core import replay, rollout
 from mjx_skills.core.learner import Learner
-from mjx_skills.envs.baxter import OBS_REL
+from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.skills import PARAM_DIM
+from mjx_skills.skills import execution
 from mjx_skills.skills.library import SkillLibrary, allowed_skills, skill_envs
-
-
-@struct.dataclass
-class MetaState:
-    """Per env: the running skill, its goal and the env steps it has run."""
-
-    active: jax.Array
-    skill: jax.Array
-    goal: jax.Array
-    steps: jax.Array
 
 
 @struct.dataclass
@@ -85,13 +75,12 @@ def make_behaviour(
     (Gaussian noise on scores and parameters, random_eps uniform meta actions)."""
 
     def init(key, n):
-        return MetaState(active=jnp.zeros((n,), bool), skill=jnp.zeros((n,), jnp.int32),
-                         goal=jnp.zeros((n, 3)), steps=jnp.zeros((n,), jnp.int32))  # fmt: skip
+        return execution.idle(n)
 
-    def step(ms: MetaState, key, state):
+    def step(ms: execution.Running, key, state):
         obs, task_goal = state.obs, state.desired_goal
         done = _stopped(lib, ms.skill, obs, ms.goal, cfg.drop_distance)
-        decide = ~ms.active | done | (ms.steps >= cfg.skill_steps)
+        decide = execution.decide(ms, done | (ms.steps >= cfg.skill_steps))
         if cfg.critic == "per_skill":
             new_skill, new_goal, meta = mpdqn.choose(agent, obs, task_goal, lib.allowed(obs),
                                                     mpdqn.skill_goals(lib.envs), ddpg_config,
@@ -102,20 +91,18 @@ def make_behaviour(
             else:
                 meta = ddpg.act(agent, obs, task_goal, ddpg_config)
             new_skill, new_goal = choose(lib, meta, obs)
-        skill = jnp.where(decide, new_skill, ms.skill)
-        goal = jnp.where(decide[:, None], new_goal, ms.goal)
+        # Every deciding env starts the chosen skill: after the first step all are active.
+        new = execution.advance(ms, decide, decide, new_skill, new_goal)
         ended = decide & ms.active
         record = {
             "skill_calls": decide.astype(jnp.int32),
             "decision": decide,
             "meta_action": meta,
-            "skill": skill,
+            "skill": new.skill,
             "ended": ended,
             "ended_at_goal": ended & lib.reached(ms.skill, obs, ms.goal),
         }
-        steps = jnp.where(decide, 0, ms.steps) + 1
-        new = MetaState(active=jnp.ones_like(decide), skill=skill, goal=goal, steps=steps)
-        return new, lib.policy_action(skill, obs, goal), record
+        return new, lib.policy_action(new.skill, obs, new.goal), record
 
     return rollout.Behaviour(init=init, step=step)
 
@@ -125,7 +112,7 @@ def _stopped(lib: SkillLibrary, skill, obs, goal, drop_distance: float) -> jax.A
     from the gripper. (The library's `terminated` stops transfer as soon as the grasp
     predicate fails, which a carried cube swinging in the fingers trips for a step or two:
     meta steps of 1-3 steps that never carried the cube to the chosen goal.)"""
-    dropped = jnp.linalg.norm(obs[..., OBS_REL], axis=-1) > drop_distance
+    dropped = jnp.linalg.norm(obs[..., lib.layout["rel"]], axis=-1) > drop_distance
     is_transfer = jnp.array([name == "transfer" for name in lib.names])[skill]
     return lib.reached(skill, obs, goal) | (is_transfer & dropped)
 
@@ -149,7 +136,7 @@ def sample_batch(
     buffer: replay.ReplayState,
     key: jax.Array,
     n: int,
-    env: Any,
+    env: GoalEnv,
     cfg: PASConfig,
     names: tuple[str, ...],
 ) -> dict[str, jax.Array]:
@@ -205,7 +192,9 @@ def summarize(names: tuple[str, ...]):
     return fn
 
 
-def make_pas(env: Any, train: TrainConfig, ddpg: DDPGConfig, pas: PASConfig) -> Learner:
+def make_pas(
+    env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig, pas: PASConfig
+) -> Learner[DDPGState, SkillLibrary]:
     """PAS (pas.hindsight off) or MPAS (on); `aux` is the SkillLibrary. (The parameters are
     named after the method's option groups, `--ddpg.*` and `--pas.*`.)"""
     from mjx_skills.agents import ddpg as agent_ops

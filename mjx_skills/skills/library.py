@@ -30,18 +30,18 @@ from flax import struct
 
 from mjx_skills import __version__
 from mjx_skills.agents import ddpg
+from mjx_skills.config import LIBRARIES as LIBRARY_NAMES
 from mjx_skills.config import DDPGConfig, LibraryConfig, from_dict
 from mjx_skills.core.grouped import apply_per_row, select
 from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
-from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, XML_DIR, BaxterEnv
+from mjx_skills.core.types import ObsLayout
+from mjx_skills.envs.baxter import LAYOUT, XML_DIR, BaxterEnv
 from mjx_skills.envs.registry import SKILLS, make
 
-LIBRARIES = {
-    "SL1": ("transit", "grasp", "transfer"),
-    "SL2": ("grasp", "transfer"),
-    "SL3": ("transit", "transfer"),
-}
-"""The thesis's libraries by name (Fig. 6.4): the full one and two reduced ones."""
+LIBRARIES = dict(zip(LIBRARY_NAMES, (("transit", "grasp", "transfer"), ("grasp", "transfer"),
+                                         ("transit", "transfer")), strict=True))  # fmt: skip
+"""The thesis's libraries (Fig. 6.4) by their names (`config.LIBRARIES`, defined there once): the full one, SL1,
+and two reduced ones."""
 FORMAT = 1
 """Version of the on-disk layout; a library of another format is refused."""
 DEFAULT_DIR = Path("experiments") / "skill_library"
@@ -92,6 +92,11 @@ class SkillLibrary:
     def envs(self) -> tuple[BaxterEnv, ...]:
         return skill_envs(self.names)
 
+    @property
+    def layout(self) -> ObsLayout:
+        """The observation layout the skills were trained on (`core.types.ObsLayout`)."""
+        return self.envs[0].layout
+
     # ------------------------------------------------------------------ batched skills
     def index(self, name: str) -> int:
         if name not in self.names:
@@ -134,17 +139,18 @@ class SkillLibrary:
         net = CoarseDynamics(obs.shape[-1], tuple(self.config.model_hidden))
         delta_n = self._model(net, self.dynamics, skill, obs, goal)
         delta = delta_n * self.delta_norm.std[skill] + self.delta_norm.mean[skill]
-        base = anchor_point(self.config.anchor, obs, goal)
-        return consistent(obs, jnp.where(self.state_mask[skill], base + delta, obs))
+        base = anchor_point(self.layout, self.config.anchor, obs, goal)
+        return consistent(self.layout, jnp.where(self.state_mask[skill], base + delta, obs))
 
     def at_goal(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """The terminal observation (B, obs_dim) of a run that ends exactly at its goal: the
         positions the skill moves (the grip; the cube too for grasp and transfer) at the
         goal, everything else as it was. No network: the search's cheap leaf state."""
         positions = np.zeros(obs.shape[-1], bool)
-        positions[OBS_GRIP] = positions[OBS_OBJECT] = True
+        positions[self.layout["grip"]] = positions[self.layout["object"]] = True
         moved = self.state_mask[skill] & positions
-        return consistent(obs, jnp.where(moved, anchor_point("goal", obs, goal), obs))
+        at_goal = anchor_point(self.layout, "goal", obs, goal)
+        return consistent(self.layout, jnp.where(moved, at_goal, obs))
 
     def recall(self, skill: jax.Array, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """Memory-based terminal observation (B, obs_dim): the terminal state of the nearest
@@ -165,10 +171,10 @@ class SkillLibrary:
             key, d = self.memory_keys[skill, idx], obs.shape[-1]
             found = (
                 found
-                - anchor_point("goal", key[:, :d], key[:, d:])
-                + anchor_point("goal", obs, goal)
+                - anchor_point(self.layout, "goal", key[:, :d], key[:, d:])
+                + anchor_point(self.layout, "goal", obs, goal)
             )
-        return consistent(obs, jnp.where(self.state_mask[skill], found, obs))
+        return consistent(self.layout, jnp.where(self.state_mask[skill], found, obs))
 
     def goal_from_param(self, skill: jax.Array, param: jax.Array, obs: jax.Array) -> jax.Array:
         """param (B, 3) in [-1, 1] (only the skill's first param_dim used) -> goal (B, 3)."""
@@ -199,18 +205,18 @@ def allowed_skills(names: tuple[str, ...], held: jax.Array) -> jax.Array:
     return jnp.where(held[..., None], is_transfer, ~is_transfer)
 
 
-def anchor_point(anchor: str, obs: jax.Array, goal: jax.Array) -> jax.Array:
+def anchor_point(layout: ObsLayout, anchor: str, obs: jax.Array, goal: jax.Array) -> jax.Array:
     """(..., obs_dim): what a terminal state is measured from (LibraryConfig.anchor): the
     start state, or ('goal') the start state with its grip and cube positions at the goal."""
     if anchor == "start":
         return obs
-    return jnp.asarray(obs).at[..., OBS_GRIP].set(goal).at[..., OBS_OBJECT].set(goal)
+    return jnp.asarray(obs).at[..., layout["grip"]].set(goal).at[..., layout["object"]].set(goal)
 
 
-def consistent(start: jax.Array, predicted: jax.Array) -> jax.Array:
+def consistent(layout: ObsLayout, predicted: jax.Array) -> jax.Array:
     """Recompute the derived part of a predicted observation (object minus grip)."""
-    rel = predicted[..., OBS_OBJECT] - predicted[..., OBS_GRIP]
-    return predicted.at[..., OBS_REL].set(rel)
+    rel = predicted[..., layout["object"]] - predicted[..., layout["grip"]]
+    return predicted.at[..., layout["rel"]].set(rel)
 
 
 def skill_envs(names: tuple[str, ...]) -> tuple[BaxterEnv, ...]:
@@ -344,7 +350,7 @@ def empty_like(
     """A library of the right shapes and zeros (the template that loading fills in)."""
     from mjx_skills.skills.fit import init_models
 
-    K, obs_dim, goal_dim = len(names), 25, 3
+    K, obs_dim, goal_dim = len(names), LAYOUT.size, 3
     keys = jax.random.split(jax.random.PRNGKey(0), K)
     policy = jax.vmap(lambda k: ddpg.init(k, obs_dim, goal_dim, 4, ddpg_config))(keys)
     dynamics, classifier = init_models(keys, config, obs_dim, goal_dim)

@@ -29,7 +29,6 @@ from flax import struct
 
 from mjx_skills.config import SearchConfig
 from mjx_skills.core import rollout
-from mjx_skills.envs.baxter import OBS_OBJECT
 from mjx_skills.skills import stalls
 from mjx_skills.skills.library import SkillLibrary
 
@@ -58,7 +57,7 @@ def sample_edges(
     skill = jnp.argmax(jnp.where(allowed[:, None], scores, -1.0), axis=-1).astype(jnp.int32)
     ok = jnp.take_along_axis(allowed, skill, axis=1)
 
-    obj = obs[:, None, OBS_OBJECT]
+    obj = obs[:, None, lib.layout["object"]]
     lo, hi = cfg.transit_height
     height = lo + (hi - lo) * height
     candidates = {
@@ -177,7 +176,8 @@ def search_envs(
         )
         if obstacles is not None:
             near = jnp.repeat(obstacles, n * b, axis=0)
-            valid &= ~stalls.blocked(near, lib.names, sk, s_rep, g, cfg.stall_radius).reshape(shape)
+            grip = s_rep[:, lib.layout["grip"]]
+            valid &= ~stalls.blocked(near, lib.names, sk, grip, g, cfg.stall_radius).reshape(shape)
         u = jnp.repeat(path_u, b, axis=1) + jnp.repeat(disc, b, axis=1) * q.reshape(shape)
         disc = jnp.repeat(disc, b, axis=1) * cfg.gamma
         states = nxt.reshape(B, n * b, -1)

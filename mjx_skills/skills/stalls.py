@@ -17,8 +17,6 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from mjx_skills.envs.baxter import OBS_GRIP
-
 MOVING_SKILLS = ("transit", "transfer")
 """Skills that travel in a straight line to their goal; grasp only closes and lifts."""
 EMPTY = 1e3
@@ -44,12 +42,12 @@ def segment_distance(points: jax.Array, start: jax.Array, end: jax.Array) -> jax
 
 
 def blocked(
-    obstacles: jax.Array, names: tuple[str, ...], skill: jax.Array, obs: jax.Array,
+    obstacles: jax.Array, names: tuple[str, ...], skill: jax.Array, grip: jax.Array,
     goal: jax.Array, radius: float,
 ) -> jax.Array:  # fmt: skip
-    """Edges (skill (R,), obs (R, 25), goal (R, 3)) of a moving skill whose path passes
-    within `radius` of one of their env's obstacles (R, M, 3): (R,) bool."""
-    near = segment_distance(obstacles, obs[:, OBS_GRIP], goal) < radius
+    """Edges (skill (R,), gripper position (R, 3), goal (R, 3)) of a moving skill whose path
+    passes within `radius` of one of their env's obstacles (R, M, 3): (R,) bool."""
+    near = segment_distance(obstacles, grip, goal) < radius
     return moving(names, skill) & jnp.any(near, axis=-1)
 
 

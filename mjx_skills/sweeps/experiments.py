@@ -29,8 +29,6 @@ from pathlib import Path
 from typing import Any
 
 EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
-LIBRARY_GROUP = {"ddpg_her_sl": "search", "pas": "pas", "mpas": "pas"}
-"""The option group that names a library method's skill library."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,7 +71,7 @@ class Cell:
         spec = methods.get(self.method)
         groups = {group: dict(fields) for group, fields in self.options}
         if self.library:
-            groups.setdefault(LIBRARY_GROUP[self.method], {})["library"] = self.library
+            groups.setdefault(methods.library_group(self.method), {})["library"] = self.library
         base = methods.preset_options(self.method, self.preset)
         options = {g: dataclasses.replace(base[g], **groups.get(g, {})) for g in spec.options}
         train = TrainConfig(task=self.task, epochs=self.epochs, seeds=self.seeds, out=out,
@@ -162,10 +160,12 @@ class Experiment:
         if self.kind == "library":
             opts = (("library", tuple(sorted(self.library.items()))),) if self.library else ()
             return [Cell("-", "library", None, 1, 1, options=opts, samples=n) for n in self.samples]
+        from mjx_skills import methods
+
         out = []
         # Method by method, so an interrupted sweep has whole methods' results first.
         for method, task in itertools.product(self.methods, self.tasks):
-            libs = self.libraries if method in LIBRARY_GROUP else (None,)
+            libs = self.libraries if methods.library_group(method) else (None,)
             for lib in libs:
                 opts = tuple((g, tuple(sorted(f.items())))
                              for g, f in sorted(self.options.get(method, {}).items()))  # fmt: skip

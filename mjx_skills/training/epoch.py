@@ -23,6 +23,7 @@ from mjx_skills import methods
 from mjx_skills.config import EnvConfig, TrainConfig
 from mjx_skills.core import replay, rollout
 from mjx_skills.core.learner import Learner, mean_records
+from mjx_skills.core.types import GoalEnv
 
 
 @struct.dataclass
@@ -49,7 +50,7 @@ class TrainCarry:
     counters: Counters
 
 
-def make_evaluate(learner: Learner, env: Any, train: TrainConfig):
+def make_evaluate(learner: Learner, env: GoalEnv, train: TrainConfig):
     """-> evaluate(agent, aux, key) -> {eval_success, eval_distance}: `eval_episodes`
     episodes with the deterministic behaviour, success read at the last step (as the thesis)."""
 
@@ -64,7 +65,7 @@ def make_evaluate(learner: Learner, env: Any, train: TrainConfig):
     return evaluate
 
 
-def make_train_cycles(learner: Learner, env: Any, train: TrainConfig):
+def make_train_cycles(learner: Learner, env: GoalEnv, train: TrainConfig):
     """-> train_cycles(carry, aux) -> (carry, metrics): an epoch's `cycles` collect-store-update
     cycles without evaluation, pure and jittable."""
 
@@ -100,7 +101,9 @@ def make_train_cycles(learner: Learner, env: Any, train: TrainConfig):
     return train_cycles
 
 
-def make_train_epoch(learner: Learner, env: Any, train: TrainConfig, eval_env: Any = None):
+def make_train_epoch(
+    learner: Learner, env: GoalEnv, train: TrainConfig, eval_env: GoalEnv | None = None
+):
     """-> train_epoch(carry, aux) -> (carry, metrics): the cycles, then evaluation (on
     `eval_env`, default `env`: the true start distribution where training uses another);
     pure and jittable. Metrics hold the counters after the epoch (int32)."""
@@ -124,7 +127,7 @@ def make_train_epoch(learner: Learner, env: Any, train: TrainConfig, eval_env: A
 
 
 def init_carry(
-    learner: Learner, env: Any, train: TrainConfig, key: jax.Array, aux: Any = None
+    learner: Learner, env: GoalEnv, train: TrainConfig, key: jax.Array, aux: Any = None
 ) -> TrainCarry:
     """Fresh agent and an empty replay whose layout is what `store` makes of an episode."""
     k_agent, k_run = jax.random.split(key)

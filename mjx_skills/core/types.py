@@ -1,0 +1,81 @@
+"""The functional goal-env contract (MuJoCo Playground / Brax style): the env state, the
+observation layout an env declares, and what the trainer and the methods use of an env."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Protocol
+
+import jax
+from flax import struct
+
+
+@struct.dataclass
+class State:
+    physics: Any
+    """The physics backend's state (`envs.physics.PhysicsState`)."""
+    obs: jax.Array
+    """(obs_dim,) observation without the goal."""
+    achieved_goal: jax.Array
+    """(goal_dim,) what the goal is compared with (gripper or object position)."""
+    desired_goal: jax.Array
+    """(goal_dim,)"""
+    reward: jax.Array
+    """0.0 on success, -1.0 otherwise."""
+    done: jax.Array
+    """True on the last step of the episode."""
+    metrics: dict[str, jax.Array]
+    """success, distance, invalid_actions, physics_resets."""
+    info: dict[str, Any]
+    """step count, the episode's start physics state, grasped flag."""
+
+
+@dataclasses.dataclass(frozen=True)
+class ObsLayout:
+    """Where each part of an env's observation lies, as (start, stop) index pairs: what the
+    skill library, the search, the stall memory and PAS read instead of fixed offsets."""
+
+    size: int
+    """obs_dim."""
+    grip: tuple[int, int]
+    """The gripper's position (3,), m."""
+    object: tuple[int, int]
+    """The object's position (3,), m."""
+    rel: tuple[int, int]
+    """Object minus gripper (3,), m: derived from the two above."""
+    fingers: tuple[int, int]
+    """The two finger positions (2,), m."""
+
+    def __getitem__(self, part: str) -> slice:
+        """layout["grip"] -> the slice of that part."""
+        return slice(*getattr(self, part))
+
+
+class GoalEnv(Protocol):
+    """What the trainer and the methods use of an env (`envs.baxter.BaxterEnv` is one)."""
+
+    obs_dim: int
+    goal_dim: int
+    action_dim: int
+    episode_length: int
+    threshold: float
+    """Success tolerance, m."""
+    layout: ObsLayout
+    goal_is_object: bool
+    """Whether the goal is the object's position (else the gripper's)."""
+
+    def grasped(self, obs: jax.Array) -> jax.Array:
+        """obs (..., obs_dim) -> (...,) bool: the object is held in the fingers."""
+        ...
+
+    def achieved_from_obs(self, obs: jax.Array) -> jax.Array:
+        """obs (..., obs_dim) -> the achieved goal (..., goal_dim) it shows."""
+        ...
+
+    def reset(self, key: jax.Array) -> State: ...
+
+    def step(self, state: State, action: jax.Array) -> State: ...
+
+    def compute_reward(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array: ...
+
+    def is_success(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array: ...
