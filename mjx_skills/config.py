@@ -18,7 +18,7 @@ def _check(cond: bool, field: str, why: str) -> None:
         raise ValueError(f"invalid config value for '{field}': {why}")
 
 
-def _check_numbers(config: Any) -> None:
+def check_numbers(config: Any) -> None:
     """Every number of every field of `config` (each element of a tuple field too) is finite
     and >= 0: no field of any config class takes NaN, an infinity or a negative value."""
     for field in dataclasses.fields(config):
@@ -90,7 +90,7 @@ class DDPGConfig:
     """Share of sampled transitions whose goal is relabelled (future k = 4 -> 0.8)."""
 
     def __post_init__(self) -> None:
-        _check_numbers(self)
+        check_numbers(self)
         _check(
             len(self.hidden) > 0 and all(h > 0 for h in self.hidden),
             "hidden",
@@ -164,7 +164,7 @@ class EnvConfig:
     after its reference [21] (docs/results.md). Off: the thesis's tasks."""
 
     def __post_init__(self) -> None:
-        _check_numbers(self)
+        check_numbers(self)
         _check(self.physics in PHYSICS, "physics", f"must be one of {', '.join(PHYSICS)}")
         _check(self.timestep > 0, "timestep", "must be > 0")
         for name in ("n_substeps", "solver_iterations", "ls_iterations", "settle_substeps"):
@@ -206,7 +206,7 @@ class TrainConfig:
     """Draw a progress bar."""
 
     def __post_init__(self) -> None:
-        _check_numbers(self)
+        check_numbers(self)
         _check(bool(self.task), "task", "must name an env")
         for name in ("epochs", "seeds", "envs", "cycles", "eval_episodes", "checkpoint_every"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")
@@ -265,7 +265,7 @@ class LibraryConfig:
     """Seed of skill training, collection and fits."""
 
     def __post_init__(self) -> None:
-        _check_numbers(self)
+        check_numbers(self)
         for name in ("transit_epochs", "grasp_epochs", "transfer_epochs", "skill_eval_episodes",
                      "collect_envs", "fit_batch", "fit_epochs", "patience"):  # fmt: skip
             _check(getattr(self, name) >= 1, name, "must be >= 1")
@@ -346,7 +346,7 @@ class SearchConfig:
     """... over this many epochs."""
 
     def __post_init__(self) -> None:
-        _check_numbers(self)
+        check_numbers(self)
         for name in ("branching", "height", "skill_steps", "eps_decay_epochs"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")
         _check(0.0 <= self.prune_below < 1.0, "prune_below", "must lie in [0, 1)")
@@ -393,7 +393,7 @@ class PASConfig:
     not DDPG+HER's 200, so the HER code's 40 per cycle instead of the trainer's 100."""
 
     def __post_init__(self) -> None:
-        _check_numbers(self)
+        check_numbers(self)
         _check(self.library in LIBRARIES, "library", f"valid: {', '.join(LIBRARIES)}")
         _check(self.critic in ("joint", "per_skill"), "critic", "valid: joint, per_skill")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")

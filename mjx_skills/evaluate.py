@@ -36,7 +36,7 @@ from mjx_skills.training.epoch import init_carry, make_evaluate, over_seeds, see
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, load_config
 
-FLAT_METHODS = ("ddpg_her", "ddpg_her_sl")
+FLAT_METHODS = ("ddpg_her", "ddpg_her_sl", "ddpg_her_sl_bc")
 """Methods whose evaluation behaviour is the flat DDPG actor: the ones gym can replay."""
 
 

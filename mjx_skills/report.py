@@ -20,7 +20,17 @@ from pathlib import Path
 import numpy as np
 
 from mjx_skills.analysis import stats
-from mjx_skills.analysis.claims import FAILS, LABEL, LEARNS, above, ci, claims, learns, reach
+from mjx_skills.analysis.claims import (
+    FAILS,
+    LABEL,
+    LEARNS,
+    THESIS_METHODS,
+    above,
+    ci,
+    claims,
+    learns,
+    reach,
+)
 from mjx_skills.config import LIBRARIES
 from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.experiments import Cell, load_experiment
@@ -344,7 +354,7 @@ def headline(r: Results) -> list[str]:
     for task in ("pick_move", "put_in_container", "put_on", "take_out", "container_wall"):
         experiment = "fig6_5" if task == "container_wall" else "fig6_3"
         row = [task]
-        for method in LABEL:
+        for method in THESIS_METHODS:
             try:
                 s = r.get(experiment, task, method)
             except KeyError:  # not part of that figure
@@ -352,7 +362,7 @@ def headline(r: Results) -> list[str]:
                 continue
             row.append("not run yet" if s is None else ci(s.last))
         rows.append(row)
-    return table(["task", *LABEL.values()], rows)
+    return table(["task", *(LABEL[m] for m in THESIS_METHODS)], rows)
 
 
 def with_headline(readme: str, r: Results) -> str:

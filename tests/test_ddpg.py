@@ -247,3 +247,21 @@ def test_the_losses_on_known_values():
         q_of, jnp.array([[1.5, 0.0]])
     )
     assert float(past[0, 0]) > 0  # descending the loss lowers a[0, 0] back towards 1
+
+
+def test_the_q_filtered_bc_loss_clones_only_demonstrations_the_critic_prefers():
+    pi = jnp.array([[0.0, 0.0], [0.5, 0.5], [1.0, -1.0], [0.2, 0.0]])
+    demo_action = jnp.array([[1.0, 0.0], [0.5, -0.5], [0.0, 0.0], [0.2, 0.0]])
+    demo = jnp.array([True, True, True, False])
+    q_demo = jnp.array([-1.0, -5.0, -2.0, 0.0])
+    q_pi = jnp.array([-3.0, -1.0, -4.0, -9.0])
+    # Rows 0 and 2 are kept (demo and Q(s, a_demo) > Q(s, pi)); row 1 the critic rejects,
+    # row 3 is no demonstration although its Q would pass.
+    loss, share = ddpg.q_filtered_bc_loss(pi, demo_action, demo, q_demo, q_pi)
+    np.testing.assert_allclose(loss, (1.0 + 2.0) / 2, rtol=1e-6)
+    np.testing.assert_allclose(share, 0.5)
+    grad = jax.grad(lambda p: ddpg.q_filtered_bc_loss(p, demo_action, demo, q_demo, q_pi)[0])(pi)
+    np.testing.assert_allclose(grad[0], [-1.0, 0.0], rtol=1e-6)  # towards the demonstration
+    assert not np.any(grad[1]) and not np.any(grad[3])
+    none, zero = ddpg.q_filtered_bc_loss(pi, demo_action, jnp.zeros(4, bool), q_demo, q_pi)
+    assert float(none) == 0.0 and float(zero) == 0.0

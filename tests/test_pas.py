@@ -153,6 +153,7 @@ LIBRARY_METHODS = {
     "ddpg_her_sl": ("ddpg_her_sl", {"search": SearchConfig(branching=3, height=2)}),
     # The default tree (K = 5, height 3) with the default stall memory and waypoints.
     "ddpg_her_sl_default_tree": ("ddpg_her_sl", {"search": SearchConfig()}),
+    "ddpg_her_sl_bc": ("ddpg_her_sl_bc", {"search": SearchConfig(branching=3, height=2)}),
     "mpas": ("mpas", {"pas": PASConfig(hindsight=True, updates_per_cycle=3)}),
     "pas": ("pas", {"pas": PASConfig(critic="joint", terminal_at_goal=False, updates_per_cycle=3)}),
 }
@@ -161,7 +162,7 @@ LIBRARY_METHODS = {
 def _args(tmp_path, case, **overrides):
     method, options = LIBRARY_METHODS[case]
     train = {**TINY, "out": str(tmp_path), **overrides}
-    if method != "ddpg_her_sl":  # PAS / MPAS take --pas.updates-per-cycle (set above)
+    if method in ("pas", "mpas"):  # they take --pas.updates-per-cycle (set above)
         train.pop("updates_per_cycle")
     return RunArgs(train=TrainConfig(**train),
                    method=method, env=EnvConfig(episode_length=12), options=options)  # fmt: skip
@@ -193,6 +194,9 @@ def test_library_methods_compile_once_repeat_and_resume(case, tmp_path):
         for name in a:
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
     assert runs[0][1]["skill_calls"].min() > 0, "the library drove some steps"
+    if method == "ddpg_her_sl_bc":  # the explorer's steps were cloned where the critic agreed
+        share = runs[0][1]["bc_share"]
+        assert np.all((share > 0) & (share < 1)), share
 
     straight = train_run(_args(tmp_path / "a", case, epochs=3, checkpoint_every=1))
     pieces = train_run(_args(tmp_path / "b", case, epochs=3, checkpoint_every=2), stop_after=2)

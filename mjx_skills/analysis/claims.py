@@ -14,7 +14,10 @@ from mjx_skills.analysis.stats import Summary
 
 FAILS = 0.1
 LEARNS = 0.5
-LABEL = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS", "ddpg_her_sl": "DDPG+HER+SL"}
+LABEL = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS", "ddpg_her_sl": "DDPG+HER+SL",
+         "ddpg_her_sl_bc": "DDPG+HER+SL+BC"}  # fmt: skip
+THESIS_METHODS = ("ddpg_her", "pas", "mpas", "ddpg_her_sl")
+"""The four methods the thesis compares (Fig. 6.3), in its order."""
 
 
 def ci(triple) -> str:
@@ -75,7 +78,7 @@ def claims(r) -> list[list[str]]:
     claim("C6", "MPAS learns faster than PAS (take_out)", [m, p],
           lambda: f"mean over epochs: MPAS {ci(m.auc)}, PAS {ci(p.auc)}",
           lambda: "matched" if above(m, p) else "short")  # fmt: skip
-    put_on = {k: g3("put_on", k) for k in LABEL}
+    put_on = {k: g3("put_on", k) for k in THESIS_METHODS}
     claim("C7", "put_on: every method learns; PAS and MPAS converge to about 0.8",
           list(put_on.values()),
           lambda: ", ".join(f"{LABEL[k]} {ci(s.last)}" for k, s in put_on.items()),

@@ -40,12 +40,14 @@ def sample_batch(
     compute_reward: RewardFn,
     strategy: str,
     relabel_prob: float,
+    with_index: bool = False,
 ) -> dict[str, jax.Array]:
     """Sample `batch_size` transitions and relabel a `relabel_prob` share of their goals.
 
     Returns obs / next_obs (B, obs_dim), goal / ag / next_ag (B, goal_dim), action
     (B, act_dim) and reward (B,) = compute_reward(next_ag, goal), recomputed for every
-    transition. `batch_size`, `compute_reward` and `strategy` are static.
+    transition. `batch_size`, `compute_reward` and `strategy` are static. `with_index`: the
+    batch also holds `episode` and `step` (B,) int32, where each transition lies.
     """
     if strategy not in STRATEGIES:
         raise ValueError(f"unknown HER strategy '{strategy}', expected one of {STRATEGIES}")
@@ -67,4 +69,5 @@ def sample_batch(
         "reward": compute_reward(next_ag, goal),
         "ag": ag,
         "next_ag": next_ag,
+        **({"episode": ep, "step": t} if with_index else {}),
     }

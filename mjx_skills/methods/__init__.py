@@ -17,6 +17,7 @@ from mjx_skills.config import DDPGConfig, PASConfig, SearchConfig
 from mjx_skills.core.learner import Learner
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.methods.ddpg_her_sl import make_ddpg_her_sl
+from mjx_skills.methods.ddpg_her_sl_bc import BCConfig, make_ddpg_her_sl_bc
 from mjx_skills.methods.pas import make_pas
 
 
@@ -100,6 +101,15 @@ METHODS: dict[str, Method] = {
         "(thesis ch. 5)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig()},
         make_learner=make_ddpg_her_sl,
+        needs_library=True,
+        load_aux=lambda options: load_library(options["search"]),
+    ),
+    "ddpg_her_sl_bc": Method(
+        name="ddpg_her_sl_bc",
+        description="DDPG+HER+SL whose actor also clones the explorer's skills where the "
+        "critic agrees (Q-filtered behaviour cloning; beyond the thesis)",
+        options={"ddpg": DDPGConfig(), "search": SearchConfig(), "bc": BCConfig()},
+        make_learner=make_ddpg_her_sl_bc,
         needs_library=True,
         load_aux=lambda options: load_library(options["search"]),
     ),

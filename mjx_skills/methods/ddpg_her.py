@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+from flax import struct
 
 from mjx_skills.agents import ddpg as ddpg_agent
 from mjx_skills.agents.ddpg import DDPGState
@@ -33,6 +34,15 @@ def make_ddpg_her(env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig) -> Learner
                    store=lambda episodes, records: episodes, update=update)  # fmt: skip
 
 
+@struct.dataclass
+class DemoEpisode:
+    """An episode and which of its steps an expert drove (the explorer's skills)."""
+
+    episode: rollout.Episode
+    demo: jax.Array
+    """(T,) bool."""
+
+
 def her_update(
     agent: ddpg_agent.DDPGState,
     buffer: ReplayState,
@@ -41,18 +51,27 @@ def her_update(
     env: GoalEnv,
     n_updates: int,
     config: DDPGConfig,
+    bc_weight: float = 0.0,
 ) -> tuple[ddpg_agent.DDPGState, dict[str, jax.Array]]:
     """Add the fresh episodes to the normalisers, then `n_updates` DDPG steps on hindsight-
     relabelled batches. The buffer and normalisers are fixed during the steps, so all
-    batches are sampled and relabelled up front in a few large gathers."""
+    batches are sampled and relabelled up front in a few large gathers. A buffer of
+    `DemoEpisode`s with `bc_weight` > 0: the actor also clones their demonstrated steps
+    (`ddpg.q_filtered_bc_loss`), relabelled like every other transition."""
+    demo = None
+    if isinstance(buffer.data, DemoEpisode):
+        demo, fresh = buffer.data.demo, fresh.episode
+        buffer = buffer.replace(data=buffer.data.episode)
+    demo = demo if bc_weight else None
     agent = ddpg_agent.observe(
         agent,
         fresh.obs.reshape(-1, env.obs_dim),
         jnp.concatenate([fresh.g, fresh.ag], axis=1).reshape(-1, env.goal_dim),
     )
     b = config.batch_size
-    batch = her.sample_batch(
-        buffer, key, n_updates * b, env.compute_reward, config.her_strategy, config.relabel_prob
-    )
+    batch = her.sample_batch(buffer, key, n_updates * b, env.compute_reward, config.her_strategy,
+                             config.relabel_prob, with_index=demo is not None)  # fmt: skip
+    if demo is not None:
+        batch["demo"] = demo[batch.pop("episode"), batch.pop("step")]
     batches = jax.tree.map(lambda x: x.reshape(n_updates, b, *x.shape[1:]), batch)
-    return ddpg_agent.update(agent, batches, config)
+    return ddpg_agent.update(agent, batches, config, bc_weight)

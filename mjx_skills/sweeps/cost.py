@@ -85,14 +85,15 @@ def cell_seconds(cell: Cell, table: CostTable) -> float:
 
     length = ENVS[cell.task].default_episode_length
     search = dataclasses.replace(SearchConfig(), **dict(dict(cell.options).get("search", ())))
-    if cell.method == "ddpg_her_sl" and search.explorer == "search":
+    searching = cell.method in ("ddpg_her_sl", "ddpg_her_sl_bc")  # BC: DDPG+HER+SL's cost
+    if searching and search.explorer == "search":
         # Between the eps = 0.001 and eps = 1 epochs in proportion to eps (the search runs
         # only where it is used), over the method's own eps schedule.
         full = table.epoch_s("sl_eps1", cell.seeds, length)
         least = table.epoch_s("sl_eps0", cell.seeds, length)
         eps = float(jnp.sum(epsilon(search, jnp.arange(cell.epochs))))
         return table.compile_s("sl_eps1") + cell.epochs * least + (full - least) * eps
-    variant = "oracle" if cell.method == "ddpg_her_sl" else cell.method
+    variant = "oracle" if searching else cell.method
     return table.compile_s(variant) + cell.epochs * table.epoch_s(variant, cell.seeds, length)
 
 
