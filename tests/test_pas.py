@@ -151,9 +151,9 @@ TINY = dict(task="pick_move", envs=2, cycles=2, updates_per_cycle=3, eval_episod
             replay_capacity=3000, progress=False)  # fmt: skip
 LIBRARY_METHODS = {
     "ddpg_her_sl": ("ddpg_her_sl", {"search": SearchConfig(branching=3, height=2)}),
-    # The default tree (K = 5, height 3) with the default stall memory and waypoints.
-    "ddpg_her_sl_default_tree": ("ddpg_her_sl", {"search": SearchConfig()}),
-    "ddpg_her_sl_bc": ("ddpg_her_sl_bc", {"search": SearchConfig(branching=3, height=2)}),
+    # DDPG+HER+SL's explorer with the default tree (K = 5, height 3), stall memory and
+    # waypoints, under DDPG+HER+SL+BC's learner: one compile covers both.
+    "ddpg_her_sl_bc_default_tree": ("ddpg_her_sl_bc", {"search": SearchConfig()}),
     "mpas": ("mpas", {"pas": PASConfig(hindsight=True, updates_per_cycle=3)}),
     "pas": ("pas", {"pas": PASConfig(critic="joint", terminal_at_goal=False, updates_per_cycle=3)}),
 }
