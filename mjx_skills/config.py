@@ -104,11 +104,8 @@ class DDPGConfig:
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         _check(self.norm_clip > 0, "norm_clip", "must be > 0")
         _check(self.norm_eps > 0, "norm_eps", "must be > 0 (the floor of a std)")
-        _check(
-            self.her_strategy in ("future", "final", "episode", "none"),
-            "her_strategy",
-            "must be one of future, final, episode, none",
-        )
+        strategies = ("future", "final", "episode", "none")
+        _check(self.her_strategy in strategies, "her_strategy", f"one of {', '.join(strategies)}")
 
 
 Physics = Literal["auto", "native", "mjx"]

@@ -11,8 +11,9 @@ from mjx_skills.envs.baxter import OBS_FINGERS, OBS_GRIP, OBS_OBJECT, OBS_REL
 @pytest.mark.parametrize("name", list(ENVS))
 def test_reward_agrees_with_success(name, env_factory):
     env = env_factory(name)
-    goal = jnp.array([0.7, -0.3, 0.0])
-    offsets = jnp.array(np.random.default_rng(0).uniform(-0.08, 0.08, (500, 3)), jnp.float32)
+    goal = jnp.tile(jnp.array([0.7, -0.3, 0.0]), env.goal_dim // 3)  # two-cube tasks: 6-D
+    offsets = np.random.default_rng(0).uniform(-0.08, 0.08, (500, env.goal_dim))
+    offsets = jnp.array(offsets * np.random.default_rng(1).uniform(0, 1, (500, 1)), jnp.float32)
     achieved = goal + offsets
     success = env.is_success(achieved, goal)
     reward = env.compute_reward(achieved, goal)

@@ -97,8 +97,11 @@ class BaxterEnv:
     """Whether the achieved goal is the object's position (else the gripper's)."""
     action_dim = 4
     goal_dim = 3
+    n_objects = 1
     layout: ObsLayout = LAYOUT
     """Where the gripper, the object and their relation lie in the observation."""
+    parked: np.ndarray = PARKED_OBJECT
+    """Where the object(s) wait, out of every contact, while a reset moves the arm."""
 
     def __init__(self, config: EnvConfig | None = None):
         self.config = config = config or EnvConfig()
@@ -203,7 +206,7 @@ class BaxterEnv:
         """
         cfg = self.config
         qpos = jnp.zeros(self.model.nq).at[:7].set(self.home_arm_qpos)
-        qpos, qvel = self._put_object(qpos, jnp.zeros(self.model.nv), jnp.asarray(PARKED_OBJECT))
+        qpos, qvel = self._put_object(qpos, jnp.zeros(self.model.nv), jnp.asarray(self.parked))
         physics = self.backend.init(qpos, qvel)
         open_ctrl = jnp.full((2,), FINGER_OPEN)
         closed_ctrl = jnp.full((2,), FINGER_CLOSED_CTRL)
@@ -234,7 +237,7 @@ class BaxterEnv:
         zero = jnp.zeros((), jnp.float32)
         info = {"step": jnp.zeros((), jnp.int32), "start_physics": physics}
         state = State(
-            physics=physics, obs=jnp.zeros(self.obs_dim), achieved_goal=jnp.zeros(3),
+            physics=physics, obs=jnp.zeros(self.obs_dim), achieved_goal=jnp.zeros(self.goal_dim),
             desired_goal=goal, reward=zero, done=jnp.zeros((), bool),
             metrics={"success": zero, "distance": zero, "invalid_actions": zero, "physics_resets": zero},
             info=info,

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 from mjx_skills.core import rollout
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL, BaxterEnv
 from mjx_skills.envs.tasks import ContainerWall, PutInContainer, TakeOut
+from mjx_skills.envs.two_objects import TwoObjects
 
 OPEN, CLOSE = 1.0, -1.0
 APPROACH_HEIGHT = 0.035  # grip above the cube's centre before descending: pads clear its top
@@ -59,8 +60,15 @@ def make_scripted_policy(env: BaxterEnv) -> Callable[[jax.Array, jax.Array], jax
             return _toward(env, obs[OBS_GRIP], goal, jnp.asarray(OPEN))
 
         return transit
+    if isinstance(env, TwoObjects):
+        return _two_cubes(env)
     place = isinstance(env, PutInContainer) and not isinstance(env, TakeOut)
-    detour = isinstance(env, ContainerWall)
+    return _pick_place(env, place, detour=isinstance(env, ContainerWall))
+
+
+def _pick_place(env: BaxterEnv, place: bool, detour: bool):
+    """-> policy(one-cube obs (25,), goal (3,)): grasp the cube, carry it to the goal and,
+    if `place`, lower it there and let go."""
 
     def policy(obs: jax.Array, goal: jax.Array) -> jax.Array:
         grip, obj = obs[OBS_GRIP], obs[OBS_OBJECT]
@@ -87,6 +95,31 @@ def make_scripted_policy(env: BaxterEnv) -> Callable[[jax.Array, jax.Array], jax
         if detour:
             target = _detour(env, grip, target)
         return _toward(env, grip, target, gripper)
+
+    return policy
+
+
+CONTAINER_SLOTS = jnp.array([[0.0, -0.025, 0.0], [0.0, 0.025, 0.0]])
+"""Where the script puts each cube in the container, from its centre: side by side."""
+
+
+def _two_cubes(env: TwoObjects):
+    """The blue cube first (placed: on its table goal, or in the container), then, once the
+    open fingers are clear above it, the red one (pick_move_two: held at its goal in the
+    air; two_in_container: placed beside it)."""
+    container = isinstance(env, PutInContainer)
+    first = _pick_place(env, place=True, detour=False)
+    second = _pick_place(env, place=container, detour=False)
+    slots = CONTAINER_SLOTS if container else jnp.zeros((2, 3))
+
+    def policy(obs: jax.Array, goal: jax.Array) -> jax.Array:
+        one, two = env.project(obs, 0), env.project(obs, 1)
+        first_done = env.cube_success(env.achieved_from_obs(obs), goal)[0] & ~env.grasped(one)
+        grip, cube = obs[OBS_GRIP], obs[OBS_OBJECT]
+        clear = (grip[2] - cube[2] > 0.06) | (jnp.linalg.norm(grip[:2] - cube[:2]) > 0.06)
+        up = _toward(env, grip, grip + jnp.array([0.0, 0.0, 0.05]), jnp.asarray(OPEN))
+        later = jnp.where(clear, second(two, goal[3:] + slots[1]), up)
+        return jnp.where(first_done, later, first(one, goal[:3] + slots[0]))
 
     return policy
 

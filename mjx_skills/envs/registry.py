@@ -8,6 +8,7 @@ from mjx_skills.config import EnvConfig
 from mjx_skills.envs.baxter import BaxterEnv
 from mjx_skills.envs.skills import Grasp, Transfer, Transit
 from mjx_skills.envs.tasks import ContainerWall, PickMove, PutInContainer, PutOn, TakeOut
+from mjx_skills.envs.two_objects import PickMoveTwo, TwoInContainer
 
 ENVS: dict[str, type[BaxterEnv]] = {
     "transit": Transit,
@@ -18,9 +19,12 @@ ENVS: dict[str, type[BaxterEnv]] = {
     "put_on": PutOn,
     "take_out": TakeOut,
     "container_wall": ContainerWall,
+    "pick_move_two": PickMoveTwo,
+    "two_in_container": TwoInContainer,
 }
 SKILLS = ("transit", "grasp", "transfer")
-TASKS = ("pick_move", "put_in_container", "put_on", "take_out", "container_wall")
+TASKS = ("pick_move", "put_in_container", "put_on", "take_out", "container_wall",
+         "pick_move_two", "two_in_container")  # fmt: skip
 
 
 def check_name(name: str) -> None:

@@ -69,6 +69,17 @@ def library_group(method: str) -> str | None:
     return next((g for g, opt in get(method).options.items() if hasattr(opt, "library")), None)
 
 
+def check_task(method: str, task: str) -> None:
+    """ValueError if `method` cannot run `task`: the library methods' skills act on one cube,
+    so they run the one-cube tasks only (the two-cube tasks: ddpg_her)."""
+    from mjx_skills.envs.registry import ENVS
+
+    cubes = ENVS[task].n_objects
+    if get(method).needs_library and cubes != 1:
+        raise ValueError(f"{method} runs on one-cube tasks; {task} has {cubes} cubes "
+                         "(ddpg_her runs every task)")  # fmt: skip
+
+
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
     """ValueError naming any option `method` does not read that differs from its default."""
     from mjx_skills.config import TrainConfig
