@@ -54,6 +54,7 @@ def shorts(r) -> list[str]:
             "PAS learns from: without hindsight its critic sees almost no success. MPAS, the "
             "same meta-controller with hindsight at the skill level, learns from every "
             f"episode.{_tried(r.get('pas_single_goal', task, 'pas'), p) if task == 'pick_move' else ''}")  # fmt: skip
+    out += _without_grasp(r)
     cell, s = r.find("fig6_5", "container_wall", "ddpg_her_sl")
     flat = r.get("fig6_5", "container_wall", "ddpg_her")
     if s is not None and not learns(s, flat):
@@ -72,3 +73,30 @@ def shorts(r) -> list[str]:
             "([methods](methods.md)); the learner improves late, from its own relabelled episodes, "
             "after eps has decayed.")  # fmt: skip
     return out or ["The shorts are stated once their cells are in."]
+
+
+def _without_grasp(r) -> list[str]:
+    """SL3 (transit, transfer): why it does not learn, from its logs at eps = 1."""
+    found = [(task, *r.find("fig6_4", task, "ddpg_her_sl", "SL3")) for task in
+             ("pick_move", "put_in_container")]  # fmt: skip
+    found = [(t, c, s) for t, c, s in found if s is not None
+             and not learns(s, r.get("fig6_3", t, "ddpg_her"))]  # fmt: skip
+    if not found:
+        return []
+    parts = []
+    for task, cell, s in found:
+        first = [m for m in r.metrics[cell.name] if m["epoch"] == 1]
+        pruned = sum(m["explore_all_pruned"] for m in first) / sum(
+            m["explore_searches"] for m in first
+        )
+        won = sum(m["train_success"] for m in r.metrics[cell.name]) / len(r.metrics[cell.name])
+        parts.append(f"{task} {ci(s.last)} (at eps = 1 every edge was pruned in {pruned:.0%} of "
+                     f"the searches; {won:.1%} of all training episodes succeeded)")  # fmt: skip
+    return [
+        "- **DDPG+HER+SL with SL3 = {transit, transfer}** (the thesis: slower than SL1, but it "
+        f"learns): last 5 epochs {'; '.join(parts)}. Transfer starts only with the cube in "
+        "hand (its training start; `skills.library.allowed_skills`), and without grasp nothing "
+        "puts it there: the search can only send the open gripper about, its classifiers "
+        "reject most such edges, and the explorer never shows the learner a cube lifted. The "
+        "thesis does not say how its SL3 got the cube into the gripper."
+    ]
