@@ -104,9 +104,10 @@ def claims(r) -> list[list[str]]:
           lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL2 {ci(b.auc)}",
           lambda: "short" if above(a, b) else "matched")  # fmt: skip
     a, c = g4("put_in_container", "SL1"), g4("put_in_container", "SL3")
-    claim("C12", "SL3 learns put_in_container slower than SL1", [a, c],
-          lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL3 {ci(c.auc)}",
-          lambda: "matched" if above(a, c) else "short")  # fmt: skip
+    d = g3("put_in_container", "ddpg_her")
+    claim("C12", "SL3 learns put_in_container, slower than SL1 (it converges)", [a, c, d],
+          lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL3 {ci(c.auc)}; SL3 last 5: {ci(c.last)}",
+          lambda: "matched" if learns(c, d) and above(a, c) else "short")  # fmt: skip
     reduced = [(t, lib, g4(t, lib), g3(t, "ddpg_her")) for t in ("pick_move", "put_in_container")
                for lib in ("SL2", "SL3")]  # fmt: skip
     claim("C13", "a reduced library (SL2, SL3) beats DDPG+HER",
