@@ -240,6 +240,17 @@ def test_rows_grouped_by_skill_get_their_own_skills_network(rows, skills_used):
     np.testing.assert_allclose(got, want, atol=1e-5)
 
 
+def test_the_scenes_digest_covers_the_one_cube_scenes_and_their_includes_only():
+    """The skills' physics: every one-cube scene and what it includes; the two-cube scenes
+    (added after the committed library) do not make it stale."""
+    names = {p.name for p in library.scene_files()}
+    assert {"scene_pick_move.xml", "scene_put_in_container.xml", "baxter.xml", "table.xml",
+            "object.xml"} <= names  # fmt: skip
+    assert not names & {"object2.xml", "scene_pick_move_two.xml", "scene_two_in_container.xml"}
+    manifest = library.read_manifest(library.DEFAULT_DIR)
+    assert manifest["scenes"] == library.scenes_digest()
+
+
 def test_a_library_from_other_scenes_or_code_is_flagged_with_the_rebuild_command(tmp_path, caplog):
     """The manifest records version, commit and the scenes' digest; a library built in
     other scenes (the cube got a floor since the old one) or by another version is warned

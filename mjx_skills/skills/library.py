@@ -16,6 +16,7 @@ import dataclasses
 import hashlib
 import json
 import logging
+import re
 import shutil
 import subprocess
 import time
@@ -264,12 +265,25 @@ def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
     return directory
 
 
+def scene_files() -> list[Path]:
+    """The MJCF files of the one-cube scenes (the skills' and the thesis's tasks') and the
+    files they include: the physics the library was built for and is used in."""
+    from mjx_skills.envs.registry import ENVS
+
+    todo, seen = {cls.scene for cls in ENVS.values() if cls.n_objects == 1}, set()
+    while todo:
+        name = todo.pop()
+        seen.add(name)
+        todo |= set(re.findall(r'<include file="([^"]+)"', (XML_DIR / name).read_text())) - seen
+    return sorted(XML_DIR / name for name in seen)
+
+
 def scenes_digest() -> str:
-    """SHA-256 (first 16 hex digits) of the MJCF files in `xml/`: the skills were trained
-    and their models fitted in these scenes, so a library built before a scene changed
-    describes other physics."""
+    """SHA-256 (first 16 hex digits) of `scene_files()`: the skills were trained and their
+    models fitted in these scenes, so a library built before one of them changed describes
+    other physics. (Scenes added for other tasks, such as the two-cube ones, do not count.)"""
     digest = hashlib.sha256()
-    for path in sorted(XML_DIR.glob("*.xml")):
+    for path in scene_files():
         digest.update(path.name.encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()[:16]
 
