@@ -172,7 +172,8 @@ def compare(default, thesis, field: str) -> str:
 
 
 VARIANTS = {"thesis_preset": ("thesis preset", None), "pas_single_goal": ("single goal", None),
-            "take_out_held": ("held starts", None), "bc": ("", "ddpg_her_sl")}  # fmt: skip
+            "take_out_held": ("held starts", None), "oracle": ("oracle explorer", None),
+            "bc": ("", "ddpg_her_sl"), "bc_weight": ("weight 10", "ddpg_her_sl")}  # fmt: skip
 """Experiments compared cell by cell with Fig. 6.3's: (their cells' tag, Fig. 6.3's method
 they are compared with; None: the same method)."""
 
@@ -254,7 +255,9 @@ TITLES = {"fig6_3": "Fig. 6.3: four tasks, four methods",
           "thesis_preset": "Our defaults against the thesis's formulation (`--preset thesis`)",
           "pas_single_goal": "Why PAS falls short on pick_move: PAS with the thesis's single goal",
           "take_out_held": "Why DDPG+HER falls short on take_out: half the starts with the cube in hand",
-          "bc": "Beyond the thesis: DDPG+HER+SL+BC, the explorer's skills cloned where the critic agrees"}  # fmt: skip
+          "oracle": "The upper bound of exploration: DDPG+HER with the scripted controllers as its explorer",
+          "bc": "Beyond the thesis: DDPG+HER+SL+BC, the explorer's skills cloned where the critic agrees",
+          "bc_weight": "DDPG+HER+SL+BC with ten times the cloning weight"}  # fmt: skip
 
 
 def render(r: Results, draw: bool = True) -> str:
