@@ -48,7 +48,9 @@ EXPERIMENTS = (
     "thesis_preset",
     "pas_single_goal",
     "take_out_held",
+    "oracle",
     "bc",
+    "bc_weight",
 )
 
 
