@@ -104,7 +104,7 @@ def prepare(variant: str, task: str, seeds: int) -> Run:
     method, options = options_of(variant)
     spec = methods.get(method)
     cfg = TrainConfig(task=task, seeds=seeds, progress=False)
-    aux = spec.load_aux(options) if spec.load_aux else None
+    aux = spec.load_aux(options)
     env, learner, epoch_fn, carry = build(method, cfg, EnvConfig(), options, aux)
     t0 = time.perf_counter()
     compiled = epoch_fn.lower(carry, aux).compile()

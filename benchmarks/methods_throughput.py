@@ -31,7 +31,7 @@ def measure(method: str, task: str, epochs: int, leaf_state: str | None = None) 
     options = dict(spec.options)
     if leaf_state:
         options["search"] = dataclasses.replace(options["search"], leaf_state=leaf_state)
-    aux = spec.load_aux(options) if spec.load_aux else None
+    aux = spec.load_aux(options)
     env, _, epoch_fn, carry = build(method, cfg, EnvConfig(), options, aux)
     compile_s, wall = timed_epochs(epoch_fn, carry, aux, epochs)
     steps = epochs * (cfg.envs * cfg.cycles + cfg.eval_episodes) * env.episode_length

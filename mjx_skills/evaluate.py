@@ -72,7 +72,7 @@ def load_trained(run_dir: Path, physics: str = "native") -> TrainedRun:
         raise FileNotFoundError(f"{run_dir} has no checkpoint: nothing to evaluate")
     spec = methods.get(args.method)
     options = args.full_options()
-    aux = spec.load_aux(options) if spec.load_aux else None
+    aux = spec.load_aux(options)
     # As the trainer's evaluation env: training-only held starts never reach evaluation.
     env = make(args.train.task, args.env, physics=physics, held_start_prob=0.0)
     learner = spec.make_learner(env, args.train, **options)

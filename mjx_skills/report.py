@@ -85,9 +85,11 @@ class Results:
         """The cell's Summary, None while it is not run."""
         return self.find(experiment, task, method, library)[1]
 
-    def mean_of(self, experiment: str, task: str, method: str, key: str) -> float:
+    def mean_of(
+        self, experiment: str, task: str, method: str, key: str, library: str = "SL1"
+    ) -> float:
         """Mean of metric `key` over every epoch and seed of a stored cell."""
-        cell, _ = self.find(experiment, task, method)
+        cell, _ = self.find(experiment, task, method, library)
         return float(np.mean([m[key] for m in self.metrics[cell.name]]))
 
 
@@ -165,12 +167,12 @@ CELL_HEADER = ["task", "method", "seeds x epochs", "last 5 epochs [95 % CI]", "0
                "mean over epochs [95 % CI]", "min"]  # fmt: skip
 
 
-def compare(default, thesis, field: str) -> str:
-    """Which of the two is higher in `field` by the interval rule ('overlap' if neither)."""
-    if default is None or thesis is None:
+def compare(a, b, field: str, names: tuple[str, str]) -> str:
+    """The name of the one of a, b higher in `field` by the interval rule ('overlap' if
+    neither; '' while one is not run)."""
+    if a is None or b is None:
         return ""
-    return ("defaults" if above(default, thesis, field) else
-            "thesis" if above(thesis, default, field) else "overlap")  # fmt: skip
+    return names[0] if above(a, b, field) else names[1] if above(b, a, field) else "overlap"
 
 
 VARIANTS = {"thesis_preset": ("thesis preset", None), "pas_single_goal": ("single goal", None),
@@ -193,12 +195,11 @@ def variant_rows(r: Results, experiment: str) -> list[list[str]]:
         same = base_cell.method == cell.method
         names = (LABEL[base_cell.method] + (", default" if same else ""),
                  LABEL[cell.method] + (f", {tag}" if tag else ""))  # fmt: skip
-        verdicts = {"defaults": names[0], "thesis": names[1], "overlap": "overlap", "": ""}
         for name, s in zip(names, (base, variant), strict=True):
             first = s is base and variant is not None
             rows.append([cell.task, name,
                          *([ci(s.last), reach(s.reach_90), ci(s.auc)] if s else ["not run yet", "", ""]),
-                         *([verdicts[compare(base, variant, f)] for f in ("last", "auc")]
+                         *([compare(base, variant, f, names) for f in ("last", "auc")]
                            if first else ["", ""])])  # fmt: skip
     return rows
 
@@ -218,21 +219,22 @@ def figure(r: Results, experiment: str, out: Path, draw: bool = True) -> Path | 
     fig, axes = plt.subplots(1, len(tasks), figsize=(4.2 * len(tasks), 3.4), squeeze=False)
     libraries = LIBRARIES
     for ax, task in zip(axes[0], tasks, strict=True):
-        pairs = [(c, "", s) for c, s in done if c.task == task]
+        # (cell, summary, tag, dashed): a variant's cell is drawn dashed beside its baseline.
+        pairs = [(c, s, "", False) for c, s in done if c.task == task]
         if experiment in VARIANTS:
-            pairs = [x for c, _, s in pairs
-                     for x in ((*baseline(r, experiment, c)[:1], "", baseline(r, experiment, c)[1]),
-                               (c, VARIANTS[experiment][0] or "variant", s))]  # fmt: skip
-        for cell, tag, s in pairs:
+            tag = VARIANTS[experiment][0]
+            pairs = [x for c, s, *_ in pairs
+                     for x in ((*baseline(r, experiment, c), "", False), (c, s, tag, True))]  # fmt: skip
+        for cell, s, tag, dashed in pairs:
             if s is None:
                 continue
             label = LABEL[cell.method] + (f" {cell.library}" if experiment == "fig6_4" else "")
-            label += f" ({tag})" if tag and tag != "variant" else ""
+            label += f" ({tag})" if tag else ""
             index = (libraries.index(cell.library) if experiment == "fig6_4"
                      else list(LABEL).index(cell.method))  # fmt: skip
             x = np.arange(1, s.epochs + 1)
             ax.plot(x, s.curve, label=label, lw=1.4, color=f"C{index}",
-                    ls="--" if tag else "-")  # fmt: skip
+                    ls="--" if dashed else "-")  # fmt: skip
             ax.fill_between(x, s.curve_low, s.curve_high, color=f"C{index}", alpha=0.2, lw=0)
         ax.set(title=task, xlabel="epoch (16 episodes)", ylim=(-0.02, 1.02))
         ax.grid(alpha=0.3)

@@ -45,7 +45,7 @@ def test_every_option_of_a_method_is_read_or_refused(method):
     seen = {group: set() for group in spec.options}
     options = {group: _tracked(opt, seen[group]) for group, opt in spec.options.items()}
     env = make(TINY.task)
-    aux = spec.load_aux(options) if spec.load_aux else None
+    aux = spec.load_aux(options)
     learner = spec.make_learner(env, TINY, **options)
     epoch = over_seeds(make_train_epoch(learner, env, TINY, env), in_axes=(0, None))
     init = jax.vmap(lambda k: init_carry(learner, env, TINY, k, aux))

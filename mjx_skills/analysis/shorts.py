@@ -90,7 +90,7 @@ def _without_grasp(r) -> list[str]:
         pruned = sum(m["explore_all_pruned"] for m in first) / sum(
             m["explore_searches"] for m in first
         )
-        won = sum(m["train_success"] for m in r.metrics[cell.name]) / len(r.metrics[cell.name])
+        won = r.mean_of("fig6_4", task, "ddpg_her_sl", "train_success", "SL3")
         parts.append(f"{task} {ci(s.last)} (at eps = 1 every edge was pruned in {pruned:.0%} of "
                      f"the searches; {won:.1%} of all training episodes succeeded)")  # fmt: skip
     return [
@@ -105,11 +105,9 @@ def _without_grasp(r) -> list[str]:
 
 def _held_note(r) -> str:
     """What the held-start run's own training episodes show (empty while it is not run)."""
-    cell, s = r.find("take_out_held", "take_out", "ddpg_her")
-    if s is None:
+    if r.get("take_out_held", "take_out", "ddpg_her") is None:
         return ""
-    rows = r.metrics[cell.name]
-    won = sum(m["train_success"] for m in rows) / len(rows)
+    won = r.mean_of("take_out_held", "take_out", "ddpg_her", "train_success")
     return (
         f" Its training episodes, held starts included, ended at the goal {won:.1%} of the "
         "time: even a cube that starts in the fingers was not carried 10-22 cm up by the "

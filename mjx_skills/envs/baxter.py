@@ -7,6 +7,7 @@ sensors, so the same code runs on both physics backends. Tasks and skills subcla
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import jax
@@ -220,12 +221,18 @@ class BaxterEnv:
         put = lambda qpos, qvel: self._put_object(qpos, qvel, object_pos)
         return self.backend.settle(physics, grip, phases, put)
 
+    @functools.cached_property
+    def single_goal(self) -> jax.Array:
+        """(goal_dim,) the goal of every episode with `EnvConfig.single_goal`: the mean of
+        256 fixed draws of the task's goal, computed once (a constant of every program)."""
+        with jax.ensure_compile_time_eval():
+            keys = jax.random.split(jax.random.PRNGKey(0), 256)
+            return jax.vmap(self.sample_start)(keys)[2].mean(axis=0)
+
     def reset(self, key: jax.Array) -> State:
         grip, object_pos, goal = self.sample_start(key)
         if self.config.single_goal:
-            # The mean of 256 fixed draws (a constant of the program).
-            keys = jax.random.split(jax.random.PRNGKey(0), 256)
-            goal = jax.vmap(self.sample_start)(keys)[2].mean(axis=0)
+            goal = self.single_goal
         held = None
         if self.config.held_start_prob > 0 and self.goal_is_object and not self.grasped_start:
             # Training start with the cube closed in the fingers where it lies (fold_in:

@@ -18,15 +18,21 @@ class PickMove(BaxterEnv):
 
     default_episode_length = 50
 
-    def sample_start(self, key):
-        k_grip, k_obj, k_goal = jax.random.split(key, 3)
-        obj = self.sample_on_table(k_obj, (0.55, -0.45), (0.8, 0.05))
-        goal = self.sample_workspace(
-            k_goal,
+    def sample_object(self, key):
+        """A cube resting anywhere on the table's reachable part (3,)."""
+        return self.sample_on_table(key, (0.55, -0.45), (0.8, 0.05))
+
+    def sample_goal(self, key):
+        """A goal over the same area, 0-18 cm above resting on the table (3,)."""
+        return self.sample_workspace(
+            key,
             low=jnp.array([0.55, -0.45, self.table_z + self.object_half]),
             high=jnp.array([0.8, 0.05, self.table_z + self.object_half + 0.18]),
         )
-        return self.sample_workspace(k_grip), obj, goal
+
+    def sample_start(self, key):
+        k_grip, k_obj, k_goal = jax.random.split(key, 3)
+        return self.sample_workspace(k_grip), self.sample_object(k_obj), self.sample_goal(k_goal)
 
 
 class PutInContainer(BaxterEnv):

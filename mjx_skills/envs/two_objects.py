@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_skills.envs.baxter import PARKED_OBJECT, SENSORS, BaxterEnv
-from mjx_skills.envs.tasks import PickMove, PutInContainer
+from mjx_skills.envs.tasks import TASK_OBJECT_REGION, PickMove, PutInContainer
 
 SENSORS_2 = ("object2_pos", "object2_quat", "object2_linvel", "object2_angvel")
 ONE = 25
@@ -109,14 +109,11 @@ class PickMoveTwo(TwoObjects, PickMove):
 
     def sample_start(self, key):
         k_grip, k1, k2, k_g1, k_g2 = jax.random.split(key, 5)
-        on_table = lambda k: self.sample_on_table(k, (0.55, -0.45), (0.8, 0.05))  # noqa: E731
-        in_air = lambda k: self.sample_workspace(  # noqa: E731
-            k, low=jnp.array([0.55, -0.45, self.table_z + self.object_half]),
-            high=jnp.array([0.8, 0.05, self.table_z + self.object_half + 0.18]))  # fmt: skip
+        on_table = self.sample_object  # the blue cube's goal rests on the table too
         cube1 = on_table(k1)
         goal1 = self.apart(k_g1, on_table, cube1[None])
         cube2 = self.apart(k2, on_table, jnp.stack([cube1, goal1]))
-        goal2 = self.apart(k_g2, in_air, jnp.stack([cube1, goal1, cube2]))
+        goal2 = self.apart(k_g2, self.sample_goal, jnp.stack([cube1, goal1, cube2]))
         grip = self.sample_workspace(k_grip)
         return grip, jnp.stack([cube1, cube2]), jnp.concatenate([goal1, goal2])
 
@@ -129,8 +126,6 @@ class TwoInContainer(TwoObjects, PutInContainer):
     default_episode_length = 200
 
     def sample_start(self, key):
-        from mjx_skills.envs.tasks import TASK_OBJECT_REGION
-
         k_grip, k1, k2 = jax.random.split(key, 3)
         on_table = lambda k: self.sample_on_table(k, *TASK_OBJECT_REGION)  # noqa: E731
         cube1 = on_table(k1)

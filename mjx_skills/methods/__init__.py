@@ -29,9 +29,6 @@ class Method:
     """Option groups of this method by CLI prefix, with their defaults (frozen dataclasses)."""
     make_learner: Callable[..., Learner]
     """make_learner(env, train: TrainConfig, **options) -> Learner."""
-    needs_library: bool = False
-    load_aux: Callable[[dict[str, Any]], Any] | None = None
-    """load_aux(options) -> the read-only input of the jitted epoch (the skill library)."""
     unread: dict[str, str] = dataclasses.field(default_factory=dict)
     """Options on this method's command line that it does not read ("group.field", "train"
     for the un-prefixed ones) -> the option it reads instead. Setting one is an error."""
@@ -39,12 +36,24 @@ class Method:
     """Options it reads only while a switch of the same group is on ("group.field" ->
     "switch"); setting one with the switch off is an error."""
 
+    @property
+    def library_group(self) -> str | None:
+        """The option group that names the method's skill library (None: it has none)."""
+        return next((g for g, opt in self.options.items() if hasattr(opt, "library")), None)
+
+    def load_aux(self, options: dict[str, Any]) -> Any:
+        """The read-only input of the jitted epoch: the skill library its option group names
+        (None for a method without one)."""
+        group = self.library_group
+        return None if group is None else load_library(options[group])
+
     def unread_now(self, options: dict[str, Any]) -> dict[str, str]:
         """The options this method does not read with these option groups -> why."""
         off = {path: f"--{path.split('.')[0]}.{switch.replace('_', '-')}, which is off"
                for path, switch in self.unread_unless.items()
                if not getattr(options[path.split(".")[0]], switch)}  # fmt: skip
-        return {**self.unread, **off}
+        instead = {path: f"it reads {flag} instead" for path, flag in self.unread.items()}
+        return {**instead, **off}
 
 
 def load_library(group: SearchConfig | PASConfig) -> Any:
@@ -64,18 +73,13 @@ PAS_UNREAD = {
 """PAS / MPAS train the meta-controller with their own update count and hindsight."""
 
 
-def library_group(method: str) -> str | None:
-    """The option group of `method` that names its skill library (None: it has none)."""
-    return next((g for g, opt in get(method).options.items() if hasattr(opt, "library")), None)
-
-
 def check_task(method: str, task: str) -> None:
     """ValueError if `method` cannot run `task`: the library methods' skills act on one cube,
     so they run the one-cube tasks only (the two-cube tasks: ddpg_her)."""
     from mjx_skills.envs.registry import ENVS
 
     cubes = ENVS[task].n_objects
-    if get(method).needs_library and cubes != 1:
+    if get(method).library_group is not None and cubes != 1:
         raise ValueError(f"{method} runs on one-cube tasks; {task} has {cubes} cubes "
                          "(ddpg_her runs every task)")  # fmt: skip
 
@@ -89,12 +93,11 @@ def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
         g: (options[g], spec.options[g]) for g in options if g in spec.options
     }
     full = {g: options.get(g, spec.options[g]) for g in spec.options}
-    for path, instead in spec.unread_now(full).items():
+    for path, why in spec.unread_now(full).items():
         group, field = path.split(".")
         given, default = groups[group]
         if getattr(given, field) != getattr(default, field):
             flag = ("--" if group == "train" else f"--{group}.") + field.replace("_", "-")
-            why = instead if "off" in instead else f"it reads {instead} instead"
             raise ValueError(f"{method} does not read {flag} ({why}); "
                              f"leave {flag} at its default {getattr(default, field)!r}")  # fmt: skip
 
@@ -112,8 +115,6 @@ METHODS: dict[str, Method] = {
         "(thesis ch. 5)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig()},
         make_learner=make_ddpg_her_sl,
-        needs_library=True,
-        load_aux=lambda options: load_library(options["search"]),
     ),
     "ddpg_her_sl_bc": Method(
         name="ddpg_her_sl_bc",
@@ -121,8 +122,6 @@ METHODS: dict[str, Method] = {
         "critic agrees (Q-filtered behaviour cloning; beyond the thesis)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig(), "bc": BCConfig()},
         make_learner=make_ddpg_her_sl_bc,
-        needs_library=True,
-        load_aux=lambda options: load_library(options["search"]),
     ),
     **{
         name: Method(
@@ -130,8 +129,6 @@ METHODS: dict[str, Method] = {
             description=description,
             options={"ddpg": DDPGConfig(), "pas": PASConfig(hindsight=name == "mpas")},
             make_learner=make_pas,
-            needs_library=True,
-            load_aux=lambda options: load_library(options["pas"]),
             unread=PAS_UNREAD,
             unread_unless={"pas.relabel_prob": "hindsight"},
         )

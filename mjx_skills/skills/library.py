@@ -41,8 +41,8 @@ from mjx_skills.envs.registry import SKILLS, make
 
 LIBRARIES = dict(zip(LIBRARY_NAMES, (("transit", "grasp", "transfer"), ("grasp", "transfer"),
                                          ("transit", "transfer")), strict=True))  # fmt: skip
-"""The thesis's libraries (Fig. 6.4) by their names (`config.LIBRARIES`, defined there once): the full one, SL1,
-and two reduced ones."""
+"""The thesis's libraries (Fig. 6.4) by their names (`config.LIBRARIES`, defined there once):
+the full one, SL1, and two reduced ones."""
 FORMAT = 1
 """Version of the on-disk layout; a library of another format is refused."""
 DEFAULT_DIR = Path("experiments") / "skill_library"

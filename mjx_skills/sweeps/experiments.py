@@ -71,7 +71,7 @@ class Cell:
         spec = methods.get(self.method)
         groups = {group: dict(fields) for group, fields in self.options}
         if self.library:
-            groups.setdefault(methods.library_group(self.method), {})["library"] = self.library
+            groups.setdefault(methods.get(self.method).library_group, {})["library"] = self.library
         base = methods.preset_options(self.method, self.preset)
         options = {g: dataclasses.replace(base[g], **groups.get(g, {})) for g in spec.options}
         train = TrainConfig(task=self.task, epochs=self.epochs, seeds=self.seeds, out=out,
@@ -165,7 +165,7 @@ class Experiment:
         out = []
         # Method by method, so an interrupted sweep has whole methods' results first.
         for method, task in itertools.product(self.methods, self.tasks):
-            libs = self.libraries if methods.library_group(method) else (None,)
+            libs = self.libraries if methods.get(method).library_group else (None,)
             for lib in libs:
                 opts = tuple((g, tuple(sorted(f.items())))
                              for g, f in sorted(self.options.get(method, {}).items()))  # fmt: skip

@@ -117,7 +117,7 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     # Read-only method inputs (the skill library) enter the jitted epoch here, never donated;
     # a missing library fails here too, before a run directory is made.
     spec = methods.get(args.method)
-    aux = spec.load_aux(options) if spec.load_aux else None
+    aux = spec.load_aux(options)
     if run_dir is None:
         run_dir = new_run_dir(args)
         save_config(run_dir, args)
