@@ -88,15 +88,15 @@ class DDPGConfig:
     of the episode ('episode'), or no relabelling ('none')."""
     relabel_prob: float = 0.8
     """Share of sampled transitions whose goal is relabelled (future k = 4 -> 0.8)."""
+    n_step: int = 1
+    """Critic targets from n-step returns of the stored behaviour (`her.sample_batch`); 1:
+    one-step TD, as the thesis."""
 
     def __post_init__(self) -> None:
         check_numbers(self)
-        _check(
-            len(self.hidden) > 0 and all(h > 0 for h in self.hidden),
-            "hidden",
-            "need >= 1 positive width",
-        )
-        for name in ("actor_lr", "critic_lr", "batch_size"):
+        _check(len(self.hidden) > 0 and all(h > 0 for h in self.hidden), "hidden",
+               "need >= 1 positive width")  # fmt: skip
+        for name in ("actor_lr", "critic_lr", "batch_size", "n_step"):
             _check(getattr(self, name) > 0, name, "must be > 0")
         _check(0.0 < self.gamma < 1.0, "gamma", "must lie in (0, 1)")
         _check(0.0 < self.tau <= 1.0, "tau", "must lie in (0, 1]")

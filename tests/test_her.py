@@ -171,3 +171,48 @@ def test_the_last_step_of_an_episode_bootstraps_through_the_time_limit(buffer):
     reward = np.asarray(batch["reward"])
     assert np.all(np.abs(y[last] - reward[last]) > 1e-6)  # gamma * Q' is there
     assert np.all(np.abs(y[last] - y_moved[last]) > 1e-6)  # and reads the final observation
+
+
+@pytest.mark.parametrize("n_step", [3, 5])
+def test_n_step_returns_sum_the_relabelled_rewards_of_the_same_episode(buffer, n_step):
+    """n-step HER: the reward is the discounted sum of rewards recomputed under the
+    relabelled goal over the next min(n, T - t) steps of the same episode, next_obs lies
+    that many steps later, and the discount is gamma to that power."""
+    gamma = 0.9
+    fn = jax.jit(functools.partial(her.sample_batch, compute_reward=compute_reward,
+                                   strategy="future", n_step=n_step, gamma=gamma),
+                 static_argnums=2)  # fmt: skip
+    batch = {
+        k: np.asarray(v) for k, v in fn(buffer, jax.random.key(5), N, relabel_prob=0.8).items()
+    }
+    ep, t = batch["obs"][:, 0], batch["obs"][:, 1]
+    goal_step = np.where(batch["goal"][:, 0] > 0, batch["goal"][:, 1], -1)  # -1: never reached
+    m = np.minimum(n_step, T - t)
+    expected = np.zeros(N)
+    for i in range(n_step):
+        reached = (t + i + 1) == goal_step
+        expected += np.where(i < m, gamma**i * np.where(reached, 0.0, -1.0), 0.0)
+    np.testing.assert_allclose(batch["reward"], expected, rtol=1e-6)
+    np.testing.assert_array_equal(batch["next_obs"], np.stack([ep, t + m, -ep], -1))
+    np.testing.assert_allclose(batch["discount"], gamma**m, rtol=1e-6)
+    # Some sums hold a success inside the window after a failure, and some windows are cut
+    # by the episode's end: both cases are exercised.
+    assert np.any((expected > -m) & (expected < 0)) and np.any(m < n_step)
+
+
+def test_the_critic_target_discounts_by_the_batch_discount():
+    """A batch `discount` replaces gamma in r + gamma * Q' (n-step returns)."""
+    from mjx_skills.agents import ddpg
+    from mjx_skills.config import DDPGConfig
+
+    config = DDPGConfig(hidden=(16,), clip_target=False, gamma=0.9)
+    state = ddpg.init(jax.random.key(0), 3, 2, 2, config)
+    rng = np.random.default_rng(0)
+    batch = {"obs": rng.normal(size=(64, 3)), "next_obs": rng.normal(size=(64, 3)),
+             "goal": rng.normal(size=(64, 2)), "action": rng.uniform(-1, 1, (64, 2)),
+             "reward": -np.ones(64)}  # fmt: skip
+    batch = {k: jnp.asarray(v, jnp.float32) for k, v in batch.items()}
+    discount = jnp.asarray(rng.choice([0.9**2, 0.9**5], 64), jnp.float32)
+    one_step = np.asarray(ddpg.td_target(state, batch, config)) + 1.0  # gamma * Q'
+    n_step = np.asarray(ddpg.td_target(state, {**batch, "discount": discount}, config)) + 1.0
+    np.testing.assert_allclose(n_step, one_step / 0.9 * np.asarray(discount), rtol=1e-4, atol=1e-6)

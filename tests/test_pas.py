@@ -13,6 +13,7 @@ from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, EnvConfig, PASConfig, SearchConfig, TrainConfig
 from mjx_skills.core import replay, rollout
 from mjx_skills.methods import pas
+from mjx_skills.methods.ddpg_her_sl_fast import FastConfig
 from mjx_skills.skills.library import DEFAULT_DIR, LIBRARIES, load
 from mjx_skills.training import epoch
 from mjx_skills.training.metrics_log import read_metrics
@@ -154,6 +155,10 @@ LIBRARY_METHODS = {
     # DDPG+HER+SL's explorer with the default tree (K = 5, height 3), stall memory and
     # waypoints, under DDPG+HER+SL+BC's learner: one compile covers both.
     "ddpg_her_sl_bc_default_tree": ("ddpg_her_sl_bc", {"search": SearchConfig()}),
+    "ddpg_her_sl_fast": (
+        "ddpg_her_sl_fast",
+        {"search": SearchConfig(branching=3, height=2), "fast": FastConfig(updates_per_cycle=3)},
+    ),
     "mpas": ("mpas", {"pas": PASConfig(hindsight=True, updates_per_cycle=3)}),
     "pas": ("pas", {"pas": PASConfig(critic="joint", terminal_at_goal=False, updates_per_cycle=3)}),
 }
@@ -162,7 +167,7 @@ LIBRARY_METHODS = {
 def _args(tmp_path, case, **overrides):
     method, options = LIBRARY_METHODS[case]
     train = {**TINY, "out": str(tmp_path), **overrides}
-    if method in ("pas", "mpas"):  # they take --pas.updates-per-cycle (set above)
+    if method in ("pas", "mpas", "ddpg_her_sl_fast"):  # they take their own update count
         train.pop("updates_per_cycle")
     return RunArgs(train=TrainConfig(**train),
                    method=method, env=EnvConfig(episode_length=12), options=options)  # fmt: skip

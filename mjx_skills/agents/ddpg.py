@@ -132,8 +132,13 @@ def explore(
 ) -> jax.Array:
     """Exploration action (..., act_dim): policy + N(0, noise_sigma^2) clipped to [-1, 1];
     with probability random_eps a uniform random action in [-1, 1] instead."""
+    return perturb(key, act(state, obs, goal, config), config)
+
+
+def perturb(key: jax.Array, a: jax.Array, config: DDPGConfig) -> jax.Array:
+    """DDPG's exploration noise on actions a (..., act_dim) in [-1, 1]: + N(0, noise_sigma^2)
+    clipped to [-1, 1]; with probability random_eps a uniform random action instead."""
     k_noise, k_rand, k_pick = jax.random.split(key, 3)
-    a = act(state, obs, goal, config)
     a = jnp.clip(a + config.noise_sigma * jax.random.normal(k_noise, a.shape), -1.0, 1.0)
     random_a = jax.random.uniform(k_rand, a.shape, minval=-1.0, maxval=1.0)
     pick_random = jax.random.uniform(k_pick, a.shape[:-1]) < config.random_eps
@@ -165,7 +170,7 @@ def normalize_batch(
     o2 = normalizer.normalize(state.obs_norm, batch["next_obs"], config.norm_clip, config.norm_eps)
     out = {"obs": o, "next_obs": o2, "goal": g, "action": batch["action"],
            "reward": batch["reward"]}  # fmt: skip
-    return {**out, **{k: batch[k] for k in ("terminal", "demo") if k in batch}}
+    return {**out, **{k: batch[k] for k in ("terminal", "demo", "discount") if k in batch}}
 
 
 def _td_target(state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig) -> jax.Array:
@@ -178,14 +183,15 @@ def _td_target(state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfi
 def target_from_next_value(
     nbatch: dict[str, jax.Array], q2: jax.Array, config: DDPGConfig
 ) -> jax.Array:
-    """r + gamma * Q' (Q' dropped after an optional `terminal`: PAS's goal reached),
-    optionally clipped to [-1 / (1 - gamma), 0]; no gradient flows through it."""
+    """r + gamma * Q' (Q' dropped after an optional `terminal`: PAS's goal reached; an
+    optional `discount` (B,) in gamma's place: n-step returns), optionally clipped to
+    [-1 / (1 - gamma), 0]; no gradient flows through it."""
     reward = nbatch["reward"]
     if reward.shape != q2.shape:  # (B, 1) rewards would silently broadcast to (B, B)
         raise ValueError(f"reward shape {reward.shape} != Q shape {q2.shape}")
     if "terminal" in nbatch:
         q2 = q2 * (1.0 - nbatch["terminal"])
-    y = reward + config.gamma * q2
+    y = reward + nbatch.get("discount", config.gamma) * q2
     if config.clip_target:
         y = jnp.clip(y, -1.0 / (1.0 - config.gamma), 0.0)
     return jax.lax.stop_gradient(y)

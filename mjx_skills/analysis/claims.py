@@ -15,7 +15,7 @@ from mjx_skills.analysis.stats import Summary
 FAILS = 0.1
 LEARNS = 0.5
 LABEL = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS", "ddpg_her_sl": "DDPG+HER+SL",
-         "ddpg_her_sl_bc": "DDPG+HER+SL+BC"}  # fmt: skip
+         "ddpg_her_sl_bc": "DDPG+HER+SL+BC", "ddpg_her_sl_fast": "DDPG+HER+SL+Fast"}  # fmt: skip
 THESIS_METHODS = ("ddpg_her", "pas", "mpas", "ddpg_her_sl")
 """The four methods the thesis compares (Fig. 6.3), in its order."""
 

@@ -41,6 +41,8 @@ def sample_batch(
     strategy: str,
     relabel_prob: float,
     with_index: bool = False,
+    n_step: int = 1,
+    gamma: float = 1.0,
 ) -> dict[str, jax.Array]:
     """Sample `batch_size` transitions and relabel a `relabel_prob` share of their goals.
 
@@ -48,6 +50,13 @@ def sample_batch(
     (B, act_dim) and reward (B,) = compute_reward(next_ag, goal), recomputed for every
     transition. `batch_size`, `compute_reward` and `strategy` are static. `with_index`: the
     batch also holds `episode` and `step` (B,) int32, where each transition lies.
+
+    `n_step` > 1 (static): n-step returns under the relabelled goal, as multi-step HER
+    (Yang et al. 2021, "MHER"; uncorrected): `reward` is the discounted sum
+    sum_i gamma**i r(ag[t + i + 1], goal) over the m = min(n_step, T - t) steps left in
+    the episode, `next_obs` is obs[t + m], and `discount` (B,) = gamma**m replaces gamma
+    in the critic's target. The steps after t are the behaviour's, not the policy's, so
+    the return is the explorer's: biased towards it, which is what a good explorer is for.
     """
     if strategy not in STRATEGIES:
         raise ValueError(f"unknown HER strategy '{strategy}', expected one of {STRATEGIES}")
@@ -61,7 +70,7 @@ def sample_batch(
         f = _goal_step(k_goal, t, replay_state.T, strategy)
         relabel = jax.random.uniform(k_mask, (batch_size,)) < relabel_prob
         goal = jnp.where(relabel[:, None], d.ag[ep, f], goal)
-    return {
+    batch = {
         "obs": d.obs[ep, t],
         "next_obs": d.obs[ep, t + 1],
         "goal": goal,
@@ -70,4 +79,22 @@ def sample_batch(
         "ag": ag,
         "next_ag": next_ag,
         **({"episode": ep, "step": t} if with_index else {}),
+    }
+    if n_step > 1:
+        batch |= _n_step_return(d, ep, t, goal, replay_state.T, compute_reward, n_step, gamma)
+    return batch
+
+
+def _n_step_return(d, ep, t, goal, T: int, compute_reward: RewardFn, n: int, gamma: float):
+    """reward, next_obs and discount of n-step returns (`sample_batch`) at (ep, t) (B,)."""
+    i = jnp.arange(n)
+    steps = t[:, None] + i  # (B, n)
+    valid = steps < T
+    later_ag = d.ag[ep[:, None], jnp.minimum(steps + 1, T)]  # (B, n, goal_dim)
+    r = compute_reward(later_ag, jnp.broadcast_to(goal[:, None], later_ag.shape))
+    m = jnp.sum(valid, axis=1)
+    return {
+        "reward": jnp.sum(jnp.where(valid, gamma**i * r, 0.0), axis=1),
+        "next_obs": d.obs[ep, t + m],
+        "discount": gamma ** m.astype(jnp.float32),
     }

@@ -18,6 +18,12 @@ from mjx_skills.core.learner import Learner
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.methods.ddpg_her_sl import make_ddpg_her_sl
 from mjx_skills.methods.ddpg_her_sl_bc import BCConfig, make_ddpg_her_sl_bc
+from mjx_skills.methods.ddpg_her_sl_fast import (
+    FAST_DDPG,
+    FAST_SEARCH,
+    FastConfig,
+    make_ddpg_her_sl_fast,
+)
 from mjx_skills.methods.pas import make_pas
 
 
@@ -122,6 +128,15 @@ METHODS: dict[str, Method] = {
         "critic agrees (Q-filtered behaviour cloning; beyond the thesis)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig(), "bc": BCConfig()},
         make_learner=make_ddpg_her_sl_bc,
+    ),
+    "ddpg_her_sl_fast": Method(
+        name="ddpg_her_sl_fast",
+        description="DDPG+HER+SL made to learn faster: wider networks, more updates, a "
+        "shorter explorer decay, the critic picking among the library's proposals "
+        "(beyond the thesis)",
+        options={"ddpg": FAST_DDPG, "search": FAST_SEARCH, "fast": FastConfig()},
+        make_learner=make_ddpg_her_sl_fast,
+        unread={"train.updates_per_cycle": "--fast.updates-per-cycle"},
     ),
     **{
         name: Method(

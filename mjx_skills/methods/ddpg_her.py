@@ -70,7 +70,8 @@ def her_update(
     )
     b = config.batch_size
     batch = her.sample_batch(buffer, key, n_updates * b, env.compute_reward, config.her_strategy,
-                             config.relabel_prob, with_index=demo is not None)  # fmt: skip
+                             config.relabel_prob, with_index=demo is not None,
+                             n_step=config.n_step, gamma=config.gamma)  # fmt: skip
     if demo is not None:
         batch["demo"] = demo[batch.pop("episode"), batch.pop("step")]
     batches = jax.tree.map(lambda x: x.reshape(n_updates, b, *x.shape[1:]), batch)

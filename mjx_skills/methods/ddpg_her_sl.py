@@ -13,6 +13,8 @@ search's place: the upper bound of what any explorer can give this learner.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import jax
 import jax.numpy as jnp
 from flax import struct
@@ -53,8 +55,13 @@ def make_behaviour(
     env: GoalEnv,
     cfg: SearchConfig,
     ddpg_config: DDPGConfig,
+    own: Callable[[jax.Array, jax.Array, jax.Array], jax.Array] | None = None,
 ) -> rollout.Behaviour:
+    """`own(key, obs, goal) -> (B, A)`: the learner's exploring action where no skill
+    drives (default: the actor plus DDPG's noise, `ddpg.explore`)."""
     eps = epsilon(cfg, epoch)
+    if own is None:
+        own = lambda k, obs, goal: ddpg.explore(agent, k, obs, goal, ddpg_config)  # noqa: E731
 
     def init(key, n):
         return ExploreState(run=execution.idle(n), last_grip=jnp.zeros((n, 3)),
@@ -89,9 +96,8 @@ def make_behaviour(
                                     ps.obstacles if cfg.stall_memory else None)  # fmt: skip
         start = explore & ~found.all_pruned
         run = execution.advance(run, decide, start, found.skill, found.goal)
-        own = ddpg.explore(agent, k_noise, obs, task_goal, ddpg_config)
         skill_action = lib.policy_action(run.skill, obs, run.goal)
-        action = jnp.where(run.active[:, None], skill_action, own)
+        action = jnp.where(run.active[:, None], skill_action, own(k_noise, obs, task_goal))
         still = jnp.concatenate(
             [jnp.zeros_like(obs[:, :3]), jnp.where(held, -1.0, 1.0)[:, None]], -1
         )

@@ -79,13 +79,17 @@ def cell_seconds(cell: Cell, table: CostTable) -> float:
     """Expected wall seconds of one training cell."""
     import jax.numpy as jnp
 
+    from mjx_skills import methods
     from mjx_skills.config import SearchConfig
     from mjx_skills.envs.registry import ENVS
     from mjx_skills.methods.ddpg_her_sl import epsilon
 
     length = ENVS[cell.task].default_episode_length
-    search = dataclasses.replace(SearchConfig(), **dict(dict(cell.options).get("search", ())))
-    searching = cell.method in ("ddpg_her_sl", "ddpg_her_sl_bc")  # BC: DDPG+HER+SL's cost
+    default = methods.get(cell.method).options.get("search", SearchConfig())
+    search = dataclasses.replace(default, **dict(dict(cell.options).get("search", ())))
+    # The methods that explore with the search (DDPG+HER+SL and its variants) cost about
+    # what DDPG+HER+SL does.
+    searching = "search" in methods.get(cell.method).options
     if searching and search.explorer == "search":
         # Between the eps = 0.001 and eps = 1 epochs in proportion to eps (the search runs
         # only where it is used), over the method's own eps schedule.

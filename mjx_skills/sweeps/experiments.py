@@ -167,7 +167,9 @@ class Experiment:
         for method, task in itertools.product(self.methods, self.tasks):
             libs = self.libraries if methods.get(method).library_group else (None,)
             for lib in libs:
-                opts = tuple((g, tuple(sorted(f.items())))
+                # TOML arrays become tuples: the config fields they set are tuples (hidden).
+                opts = tuple((g, tuple(sorted((k, tuple(v) if isinstance(v, list) else v)
+                                              for k, v in f.items())))
                              for g, f in sorted(self.options.get(method, {}).items()))  # fmt: skip
                 out.append(Cell(task, method, lib, self.seeds, self.epochs,
                                 tuple(sorted(self.train.items())), opts, preset=self.preset,

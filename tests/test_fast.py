@@ -1,0 +1,70 @@
+"""DDPG+HER+SL+Fast's action selection: the critic picks among the actor's action and the
+library's proposals (`methods/ddpg_her_sl_fast.py`)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjx_skills.agents import ddpg
+from mjx_skills.config import DDPGConfig, SearchConfig
+from mjx_skills.methods import ddpg_her_sl_fast as fast
+from mjx_skills.skills.library import SkillLibrary, skill_envs
+from tests.test_search import NAMES, states
+
+CONFIG = DDPGConfig(hidden=(16,))
+
+
+@dataclasses.dataclass(frozen=True)
+class EncodingLibrary:
+    """A library whose skill policies say who they are: action = (skill / 10, goal)."""
+
+    names: tuple[str, ...] = NAMES
+
+    @property
+    def envs(self):
+        return skill_envs(self.names)
+
+    @property
+    def layout(self):
+        from mjx_skills.envs.baxter import LAYOUT
+
+        return LAYOUT
+
+    allowed = SkillLibrary.allowed
+
+    def policy_action(self, skill, obs, goal):
+        return jnp.concatenate([skill[:, None] / 10.0, goal], axis=-1)
+
+
+@pytest.mark.parametrize("held", [False, True])
+def test_proposals_are_the_allowed_skills_actions_on_the_searchs_first_level_goals(held):
+    obs, goal = states(16, held)
+    actions, ok = fast.propose(EncodingLibrary(), SearchConfig(), obs, goal, jax.random.key(1), 6)
+    assert actions.shape == (16, 6, 4) and bool(jnp.all(ok))
+    skill = np.rint(np.asarray(actions[..., 0]) * 10).astype(int)
+    transfer = NAMES.index("transfer")
+    assert np.all(skill == transfer) if held else np.all(skill != transfer)
+    if held:  # transfer goals lie around the task goal (3 cm noise, or a waypoint)
+        near = np.linalg.norm(np.asarray(actions[..., 1:]) - np.asarray(goal)[:, None], axis=-1)
+        assert np.mean(near < 0.03 * np.sqrt(3) + 1e-6) > 0.5
+
+
+def test_the_critic_picks_the_best_candidate_and_ties_go_to_the_actor(monkeypatch):
+    """With Q(s, g, a) = -|a - target|^2, the pick is the candidate nearest the target:
+    a proposal when the target is one, the actor's action when the target is that."""
+    obs, goal = states(8, held=False)
+    agent = ddpg.init(jax.random.key(0), 25, 3, 4, CONFIG)
+    lib, key = EncodingLibrary(), jax.random.key(2)
+    proposals, _ = fast.propose(lib, SearchConfig(), obs, goal, key, 5)
+    own = ddpg.act(agent, obs, goal, CONFIG)
+    for target, from_library in ((proposals[:, 3], True), (own, False)):
+        rigged = lambda s, o, g, a, c, t=target: -jnp.sum((a - t[:, None]) ** 2, axis=-1)  # noqa: E731
+        monkeypatch.setattr(ddpg, "q_value", rigged)
+        action, taken = fast.pick(agent, lib, SearchConfig(), obs, goal, key, 5, CONFIG)
+        np.testing.assert_allclose(action, target, atol=1e-6)
+        assert bool(jnp.all(taken == from_library))
