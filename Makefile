@@ -21,9 +21,9 @@ $(STAMP): pyproject.toml
 	PYTHONWARNINGS=ignore $(BIN)/pip install --quiet -e '.[dev,notebook,ray]'
 	touch $(STAMP)
 
-# DDPG+HER+SL by default; it builds the skill library first if there is none.
+# DDPG+HER+SL by default; a library method builds the skill library first if there is none.
 train: setup
-	@if [ "$(METHOD)" = ddpg_her_sl ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills; fi
+	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills; fi
 	$(BIN)/python -m mjx_skills.train $(METHOD) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
 
 # Train transit / grasp / transfer, collect their data, fit their models (about 10 min).

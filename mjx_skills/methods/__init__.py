@@ -137,6 +137,7 @@ METHODS: dict[str, Method] = {
         options={"ddpg": FAST_DDPG, "search": FAST_SEARCH, "fast": FastConfig()},
         make_learner=make_ddpg_her_sl_fast,
         unread={"train.updates_per_cycle": "--fast.updates-per-cycle"},
+        unread_unless={"fast.proposals": "pick"},
     ),
     **{
         name: Method(

@@ -116,6 +116,8 @@ def make_ddpg_her_sl_fast(
         return lambda key, obs, goal: pick(agent, lib, search, obs, goal, key, n, ddpg)[0]
 
     def explore(agent, lib, epoch):
+        if search.explorer == "scripted":  # the oracle explores; the pick acts in evaluation
+            return base.explore(agent, lib, epoch)
         own = _noisy(chosen(agent, lib), ddpg)
         return make_behaviour(agent, lib, epoch, env, search, ddpg, own=own)
 

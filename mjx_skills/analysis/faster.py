@@ -1,0 +1,96 @@
+"""The targets of "learn faster than the oracle explorer" against the stored cells: the
+report's section on DDPG+HER+SL+Fast, computed from the data."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjx_skills.analysis.claims import ci, reach
+
+ABLATIONS = {"wide": "wide networks (3 x 64 units instead)",
+             "updates": "extra updates (100 per cycle instead of 400)",
+             "eps": "short explorer (eps decayed over 30 epochs instead of 15)",
+             "pick": "the critic's pick (the actor alone acts)"}  # fmt: skip
+"""DDPG+HER+SL+Fast's ingredients, each removed in turn by experiments/fast_no_NAME.toml."""
+EXPERIMENTS = ("fast", *(f"fast_no_{x}" for x in ABLATIONS))
+TITLES = {"fast": "Beyond the thesis: DDPG+HER+SL+Fast, learning faster than the oracle explorer"}
+
+TARGETS = (("pick_move", 30), ("put_in_container", 40))
+"""(task, epoch by which the 5-epoch rolling mean must reach 0.9)."""
+WALL = ("container_wall", 0.8, 0.5)
+"""container_wall: last-5 mean at least 0.8, no seed below 0.5 over its last 10 epochs."""
+
+
+def _reach(s) -> str:
+    return "not run yet" if s is None else reach(s.reach_90)
+
+
+def seed_minimum(rows: list[dict], last: int = 10) -> float:
+    """The lowest seed's mean eval success over its last `last` epochs."""
+    end = max(m["epoch"] for m in rows)
+    by_seed: dict[int, list[float]] = {}
+    for m in rows:
+        if m["epoch"] > end - last:
+            by_seed.setdefault(m["seed"], []).append(m["eval_success"])
+    return min(float(np.mean(v)) for v in by_seed.values())
+
+
+def faster(r) -> list[str]:
+    """The targets table: DDPG+HER+SL, the oracle explorer and DDPG+HER+SL+Fast, from
+    `report.Results` r."""
+    rows = []
+    for task, by in TARGETS:
+        _, sl = r.find("fig6_3", task, "ddpg_her_sl")
+        oracle = r.get("oracle", task, "ddpg_her_sl") if task == "pick_move" else None
+        _, fast = r.find("fast", task, "ddpg_her_sl_fast")
+        met = "" if fast is None else "yes" if fast.reach_90 and fast.reach_90 <= by else "no"
+        rows.append([task, f"0.9 (rolling mean) by epoch {by}", _reach(sl),
+                     _reach(oracle) if task == "pick_move" else "-", _reach(fast), met])  # fmt: skip
+    task, level, floor = WALL
+    _, sl = r.find("fig6_5", task, "ddpg_her_sl")
+    try:
+        cell, fast = r.find("fast", task, "ddpg_her_sl_fast")
+    except KeyError:  # not part of the experiment yet
+        cell, fast = None, None
+    ours, met = "not run", ""
+    if fast is not None:
+        low = seed_minimum(r.metrics[cell.name])
+        ours = f"last 5: {ci(fast.last)}; lowest seed over its last 10: {low:.2f}"
+        met = "yes" if fast.last[0] >= level and low >= floor else "no"
+    rows.append([task, f"last 5 >= {level}, no seed < {floor} over its last 10",
+                 "-" if sl is None else f"last 5: {ci(sl.last)}", "-", ours, met])  # fmt: skip
+    return rows
+
+
+HEADER = ["task", "target", "DDPG+HER+SL (0.9 at epoch)", "oracle explorer",
+          "DDPG+HER+SL+Fast", "met"]  # fmt: skip
+
+
+def ablation_rows(r) -> list[list[str]]:
+    """One row per ablation of pick_move: what it reaches, and whether the full method is
+    faster (its interval of the mean over epochs entirely above the ablation's); the full
+    method's row over the ablations' epochs."""
+    from mjx_skills.analysis.claims import above
+
+    cell, full = r.find("fast", "pick_move", "ddpg_her_sl_fast")
+    rows = []
+    for name, why in ABLATIONS.items():
+        _, s = r.find(f"fast_no_{name}", "pick_move", "ddpg_her_sl_fast")
+        if full is not None and s is not None:
+            full = r.first_epochs(cell, full, s.epochs)  # over the ablations' budget
+        verdict = ""
+        if s is not None and full is not None:
+            verdict = ("the full method" if above(full, s) else
+                       "the ablation" if above(s, full) else "overlap")  # fmt: skip
+        rows.append([why, *_cells(s, verdict)])
+    return [["(none: the full method)", *_cells(full, None)], *rows]
+
+
+def _cells(s, verdict: str | None) -> list[str]:
+    if s is None:
+        return ["not run yet", "", "", "", ""]
+    return [f"{s.seeds} x {s.epochs}", ci(s.last), reach(s.reach_90), ci(s.auc), verdict or ""]
+
+
+ABLATION_HEADER = ["removed", "seeds x epochs", "last 5 epochs [95 % CI]", "0.9 at epoch",
+                   "mean over epochs [95 % CI]", "faster"]  # fmt: skip
