@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from mjx_skills.envs import make
+from mjx_skills.skills.library import DEFAULT_DIR
 
 
 def _obs(env, grip, cubes):
@@ -48,3 +49,72 @@ def test_library_methods_refuse_two_cube_tasks_before_writing_anything(tmp_path)
     with pytest.raises(SystemExit, match="one-cube tasks; two_in_container has 2 cubes"):
         train.main(["mpas", "--task", "two_in_container", "--out", str(tmp_path)])
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.skipif(not (DEFAULT_DIR / "manifest.json").exists(), reason="no built skill library")
+@pytest.mark.parametrize("k", [0, 1])
+def test_a_library_skill_acts_on_cube_k_as_on_the_cube_of_a_one_cube_scene(k):
+    """The committed library (trained with one cube), applied to cube k of a two-cube scene
+    through the projection, gives the actions it gives in the one-cube scene holding only
+    that cube (grip and cube where they are), for every skill and goal."""
+    from mjx_skills.methods.ddpg_her_sl import object_views
+    from mjx_skills.skills.library import load
+
+    lib, _ = load(DEFAULT_DIR)
+    two, one = make("pick_move_two"), make("pick_move")
+    grip = np.array([0.62, -0.15, 0.02])
+    cubes = np.array([[0.7, -0.3, -0.08], [0.6, -0.05, -0.08]])
+    view = object_views(two, _obs(two, grip, cubes)[None])[:, k]
+    alone = _obs(one, grip, cubes[k])[None]
+    goals = jnp.asarray(
+        np.random.default_rng(k).uniform([0.5, -0.4, -0.05], [0.8, 0.0, 0.1], (8, 3))
+    )
+    for skill in range(len(lib.names)):
+        s = jnp.full((8,), skill, jnp.int32)
+        on_view = lib.policy_action(s, jnp.repeat(view, 8, 0), goals)
+        on_alone = lib.policy_action(s, jnp.repeat(alone, 8, 0), goals)
+        np.testing.assert_allclose(np.asarray(on_view), np.asarray(on_alone), atol=2e-2)
+
+
+def _held_scene(two, n: int, held: int) -> jax.Array:
+    """(n, 40) observations: cube `held` closed in the fingers, the other on the table."""
+    from mjx_skills.envs.baxter import LAYOUT, OBS_OBJECT
+    from mjx_skills.envs.two_objects import _CUBE_1
+    from mjx_skills.skills.library import consistent
+    from tests.test_search import states
+
+    in_hand, _ = states(n, held=True)
+    table, _ = states(n, held=False)
+    on_table = consistent(LAYOUT, in_hand.at[:, OBS_OBJECT].set(table[:, OBS_OBJECT]))
+    views = (in_hand, on_table) if held == 0 else (on_table, in_hand)
+    obs = jnp.concatenate([views[0], views[1][:, _CUBE_1]], axis=1)
+    np.testing.assert_allclose(two.project(obs, held), in_hand, atol=1e-6)
+    return obs
+
+
+@pytest.mark.parametrize("held", [0, 1])
+def test_the_search_never_plans_a_transfer_of_the_cube_not_held(held):
+    """DDPG+HER+SL's explorer in a two-cube scene searches (skill, cube, goal): over many
+    draws it picks both cubes and transfer, but transfer only ever for the cube held."""
+    from mjx_skills.agents import ddpg
+    from mjx_skills.config import DDPGConfig, SearchConfig
+    from mjx_skills.methods import ddpg_her_sl
+    from tests.test_search import EnvState, KnownLibrary
+
+    two, n = make("pick_move_two"), 512
+    obs = _held_scene(two, n, held)
+    rng = np.random.default_rng(held)
+    goal = jnp.asarray(rng.uniform([0.5, -0.4, 0.1] * 2, [0.85, 0.0, 0.2] * 2, (n, 6)), jnp.float32)
+    state = EnvState(obs=obs, desired_goal=goal, achieved_goal=two.achieved_from_obs(obs))
+    agent = ddpg.init(jax.random.PRNGKey(1), 40, 6, 4, DDPGConfig(hidden=(16,)))
+    cfg = SearchConfig(eps_start=1.0, eps_end=1.0, stall_memory=0, branching=3, height=2)
+    beh = ddpg_her_sl.make_behaviour(agent, KnownLibrary(), jnp.zeros((), jnp.int32), two, cfg,
+                                     DDPGConfig(hidden=(16,)))  # fmt: skip
+    ps, _, record = jax.jit(beh.step)(
+        beh.init(jax.random.PRNGKey(0), n), jax.random.PRNGKey(3), state
+    )
+    transfer = np.asarray(ps.run.skill) == KnownLibrary().names.index("transfer")
+    cube = np.asarray(record["object"])
+    assert np.asarray(record["skill_calls"]).all()
+    assert transfer.any() and (cube != held).any(), "both kinds of plan were chosen"
+    assert np.all(cube[transfer] == held)

@@ -41,6 +41,10 @@ class Method:
     unread_unless: dict[str, str] = dataclasses.field(default_factory=dict)
     """Options it reads only while a switch of the same group is on ("group.field" ->
     "switch"); setting one with the switch off is an error."""
+    any_cubes: bool = False
+    """Its library skills act on any cube of a scene through the scene's projection onto
+    (gripper, cube k) (DDPG+HER+SL's explorer), so it runs the two-cube tasks too; the
+    other library methods run the one-cube tasks only."""
 
     @property
     def library_group(self) -> str | None:
@@ -80,14 +84,16 @@ PAS_UNREAD = {
 
 
 def check_task(method: str, task: str) -> None:
-    """ValueError if `method` cannot run `task`: the library methods' skills act on one cube,
-    so they run the one-cube tasks only (the two-cube tasks: ddpg_her)."""
+    """ValueError if `method` cannot run `task`: a library method whose skills act on one
+    cube only (not `any_cubes`) runs the one-cube tasks only."""
     from mjx_skills.envs.registry import ENVS
 
     cubes = ENVS[task].n_objects
-    if get(method).library_group is not None and cubes != 1:
+    spec = get(method)
+    if spec.library_group is not None and not spec.any_cubes and cubes != 1:
+        valid = [name for name, m in METHODS.items() if m.library_group is None or m.any_cubes]
         raise ValueError(f"{method} runs on one-cube tasks; {task} has {cubes} cubes "
-                         "(ddpg_her runs every task)")  # fmt: skip
+                         f"(every task: {', '.join(valid)})")  # fmt: skip
 
 
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
@@ -121,6 +127,7 @@ METHODS: dict[str, Method] = {
         "(thesis ch. 5)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig()},
         make_learner=make_ddpg_her_sl,
+        any_cubes=True,
     ),
     "ddpg_her_sl_bc": Method(
         name="ddpg_her_sl_bc",
@@ -128,6 +135,7 @@ METHODS: dict[str, Method] = {
         "critic agrees (Q-filtered behaviour cloning; beyond the thesis)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig(), "bc": BCConfig()},
         make_learner=make_ddpg_her_sl_bc,
+        any_cubes=True,
     ),
     "ddpg_her_sl_fast": Method(
         name="ddpg_her_sl_fast",

@@ -40,6 +40,21 @@ class ExploreState:
     """(B, M, 3) where skills stalled this episode (`stalls.py`; M = 0 when off)."""
     stalls: jax.Array
     """(B,) int32 stalls so far this episode (the ring buffer's write position)."""
+    obj: jax.Array
+    """(B,) int32 the cube the running skill acts on (0 in a one-cube scene)."""
+
+
+def object_views(env: GoalEnv, obs: jax.Array) -> jax.Array:
+    """obs (B, obs_dim) -> (B, n, 25): the scene seen as (gripper, cube k) for each of its n
+    cubes, the one-cube observation a library skill was trained on (`project`)."""
+    if env.n_objects == 1:
+        return obs[:, None]
+    return jnp.stack([env.project(obs, k) for k in range(env.n_objects)], axis=1)
+
+
+def _row(x: jax.Array, k: jax.Array) -> jax.Array:
+    """x (B, n, ...) at k (B,) -> (B, ...)."""
+    return jnp.take_along_axis(x, k.reshape(-1, 1, *([1] * (x.ndim - 2))), axis=1)[:, 0]
 
 
 def epsilon(cfg: SearchConfig, epoch: jax.Array) -> jax.Array:
@@ -58,15 +73,25 @@ def make_behaviour(
     own: Callable[[jax.Array, jax.Array, jax.Array], jax.Array] | None = None,
 ) -> rollout.Behaviour:
     """`own(key, obs, goal) -> (B, A)`: the learner's exploring action where no skill
-    drives (default: the actor plus DDPG's noise, `ddpg.explore`)."""
+    drives (default: the actor plus DDPG's noise, `ddpg.explore`).
+
+    In a scene of n > 1 cubes every skill acts on one cube k through the scene's projection
+    onto (gripper, cube k) (`object_views`), the library used as it is: the search plans
+    over (skill, cube, goal), each cube's tree from its own view towards its own part of
+    the task goal (the other cube carried over unchanged), among the cubes not yet at
+    their goals, and the best path's first edge wins. Transfer is allowed only on a view
+    whose cube is held (`SkillLibrary.allowed`), so it only ever moves the held cube."""
     eps = epsilon(cfg, epoch)
+    n = env.n_objects
+    scored = env.cube_view if n > 1 else env  # what a search scores one cube's states with
     if own is None:
         own = lambda k, obs, goal: ddpg.explore(agent, k, obs, goal, ddpg_config)  # noqa: E731
 
-    def init(key, n):
-        return ExploreState(run=execution.idle(n), last_grip=jnp.zeros((n, 3)),
-                            obstacles=stalls.empty(n, cfg.stall_memory),
-                            stalls=jnp.zeros((n,), jnp.int32))  # fmt: skip
+    def init(key, n_envs):
+        return ExploreState(run=execution.idle(n_envs), last_grip=jnp.zeros((n_envs, 3)),
+                            obstacles=stalls.empty(n_envs, cfg.stall_memory),
+                            stalls=jnp.zeros((n_envs,), jnp.int32),
+                            obj=jnp.zeros((n_envs,), jnp.int32))  # fmt: skip
 
     def step(ps: ExploreState, key, state):
         k_coin, k_search, k_noise = jax.random.split(key, 3)
@@ -81,7 +106,9 @@ def make_behaviour(
             obstacles, count = stalls.remember(ps.obstacles, ps.stalls, grip, run.goal, stall,
                                                cfg.stall_ahead)  # fmt: skip
             ps = ps.replace(obstacles=obstacles, stalls=count)
-        done = lib.terminated(run.skill, obs, run.goal) | (run.steps >= cfg.skill_steps) | stall
+        views = object_views(env, obs)  # (B, n, 25)
+        seen = _row(views, ps.obj)
+        done = lib.terminated(run.skill, seen, run.goal) | (run.steps >= cfg.skill_steps) | stall
         decide = execution.decide(run, done)
         explore = decide & (jax.random.uniform(k_coin, run.steps.shape) < eps)
         # With the task already solved, the best plan is to do nothing: hold still, keeping
@@ -90,13 +117,24 @@ def make_behaviour(
         solved = env.is_success(state.achieved_goal, task_goal)
         hold = explore & solved
         explore = explore & ~solved
-        # The search's cost is paid only for the envs that explore, and not at all at a step
-        # where no env of any seed explores (`lookahead.search_where`).
-        found = lookahead.search_where(lib, cfg, env, explore, obs, task_goal, k_search,
-                                    ps.obstacles if cfg.stall_memory else None)  # fmt: skip
-        start = explore & ~found.all_pruned
-        run = execution.advance(run, decide, start, found.skill, found.goal)
-        skill_action = lib.policy_action(run.skill, obs, run.goal)
+        # The search's cost is paid only for the envs (and cubes) that explore, and not at
+        # all at a step where no env of any seed explores (`lookahead.search_where`).
+        B = obs.shape[0]
+        where = explore[:, None]
+        if n > 1:  # a cube already at its goal is left alone
+            where = where & ~env.cube_success(state.achieved_goal, task_goal)
+        obstacles = ps.obstacles if cfg.stall_memory else None
+        found = lookahead.search_where(lib, cfg, scored, where.reshape(-1),
+                                    views.reshape(B * n, -1), task_goal.reshape(B * n, 3),
+                                    k_search,
+                                    None if obstacles is None else jnp.repeat(obstacles, n, 0))  # fmt: skip
+        found = jax.tree.map(lambda x: x.reshape(B, n, *x.shape[1:]), found)
+        obj = jnp.argmax(found.utility, axis=1).astype(jnp.int32)  # the best cube's plan
+        all_pruned = jnp.all(found.all_pruned, axis=1)
+        start = explore & ~all_pruned
+        run = execution.advance(run, decide, start, _row(found.skill, obj), _row(found.goal, obj))
+        obj = jnp.where(start, obj, ps.obj)
+        skill_action = lib.policy_action(run.skill, _row(views, obj), run.goal)
         action = jnp.where(run.active[:, None], skill_action, own(k_noise, obs, task_goal))
         still = jnp.concatenate(
             [jnp.zeros_like(obs[:, :3]), jnp.where(held, -1.0, 1.0)[:, None]], -1
@@ -107,12 +145,14 @@ def make_behaviour(
             "skill_driven": run.active,
             "holds": hold,
             "searches": explore,
-            "all_pruned": explore & found.all_pruned,
+            "all_pruned": explore & all_pruned,
             "eps": jnp.broadcast_to(eps, run.active.shape),
         }
         if cfg.stall_memory:
             record["stalls"] = stall
-        ps = ps.replace(run=run, last_grip=grip)
+        if n > 1:
+            record["object"] = obj
+        ps = ps.replace(run=run, last_grip=grip, obj=obj)
         return ps, action, record
 
     return rollout.Behaviour(init=init, step=step)
