@@ -118,3 +118,20 @@ def test_the_search_never_plans_a_transfer_of_the_cube_not_held(held):
     assert np.asarray(record["skill_calls"]).all()
     assert transfer.any() and (cube != held).any(), "both kinds of plan were chosen"
     assert np.all(cube[transfer] == held)
+
+
+@pytest.mark.skipif(not (DEFAULT_DIR / "manifest.json").exists(), reason="no built skill library")
+def test_ddpg_her_sl_trains_on_two_cubes_with_the_one_cube_library(tmp_path):
+    """A whole (tiny) run of DDPG+HER+SL on pick_move_two: the library's skills drive steps
+    on both cubes (the logged mean cube index lies strictly between 0 and 1)."""
+    from mjx_skills.config import EnvConfig, SearchConfig, TrainConfig
+    from mjx_skills.training.metrics_log import read_metrics
+    from mjx_skills.training.runner import RunArgs, train_run
+
+    train = TrainConfig(task="pick_move_two", epochs=1, envs=4, cycles=1, updates_per_cycle=2,
+                        eval_episodes=2, replay_capacity=2000, progress=False, out=str(tmp_path))  # fmt: skip
+    args = RunArgs(train=train, method="ddpg_her_sl", env=EnvConfig(episode_length=40),
+                   options={"search": SearchConfig(branching=3, height=2)})  # fmt: skip
+    (row,) = read_metrics(train_run(args))
+    assert row["skill_calls"] > 0
+    assert 0.0 < row["explore_object"] < 1.0, row["explore_object"]
