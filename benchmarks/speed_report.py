@@ -150,16 +150,22 @@ def search() -> list[str]:
 
 
 def make_train() -> list[str]:
+    """One paragraph per method timed (its latest row; rows without a method: DDPG+HER+SL)."""
     path = RESULTS / "make_train.jsonl"
     if not path.exists():
         return []
-    run = rows("make_train")[-1]
+    latest = {r.get("method", "ddpg_her_sl"): r for r in rows("make_train")}
+    return [_make_train(run) for run in latest.values()]
+
+
+def _make_train(run: dict) -> str:
     curve = [json.loads(line) for line in (ROOT / run["curve"]).open()]
     last5, hit = curve_summary(curve)
     wall = {r["epoch"]: r["wall_s"] for r in curve}
+    command = run["command"]
     if hit is None:
-        return [f"**`make train TASK=pick_move`**: the 5-epoch rolling mean never reached 0.90 "
-                f"in {len(wall)} epochs (`{run['curve']}`)."]  # fmt: skip
+        return (f"**`{command}`**: the 5-epoch rolling mean never reached 0.90 "
+                f"in {len(wall)} epochs (`{run['curve']}`).")  # fmt: skip
     start = run["wall_s"] - wall[max(wall)]  # process start, library load, first trace
     fresh = (
         f"; the final policy succeeds on {run['fresh_success']:.2f} of 100 fresh episodes "
@@ -170,14 +176,14 @@ def make_train() -> list[str]:
     busy = (f" The machine was not idle (1-minute load average {run['load_before']:.1f} at the "
             f"start: other runs shared its 2 cores), so the times are upper bounds."
             if run.get("load_before", 0) > 0.5 else "")  # fmt: skip
-    return [f"**`make train TASK=pick_move`** (one seed, `{run['curve']}`): the 5-epoch rolling "
+    return (f"**`{command}`** (one seed, `{run['curve']}`): the 5-epoch rolling "
             f"mean of eval success first reaches 0.90 at epoch {hit}, **{(start + wall[hit]) / 60:.1f} "
-            f"min** after the command started (compile included); the 100 epochs took "
-            f"{run['wall_s'] / 60:.1f} min, last 5 epochs {last5:.2f}{fresh}.{busy}"]  # fmt: skip
+            f"min** after the command started (compile included); the {len(wall)} epochs took "
+            f"{run['wall_s'] / 60:.1f} min, last 5 epochs {last5:.2f}{fresh}.{busy}")  # fmt: skip
 
 
 def section() -> str:
-    timed = make_train()
+    timed = [line for paragraph in make_train() for line in (paragraph, "")][:-1]
     parts = [BEGIN, *epoch_cost(), "", *sweeps(), "", *search(), ""]
     return "\n".join([*parts, *timed, END] if timed else [*parts, END])
 
