@@ -79,8 +79,10 @@ PAS_UNREAD = {
     "train.updates_per_cycle": "--pas.updates-per-cycle",
     "ddpg.relabel_prob": "--pas.relabel-prob",
     "ddpg.her_strategy": "--pas.hindsight",
+    "ddpg.n_step": "--pas.skill-steps",
 }
-"""PAS / MPAS train the meta-controller with their own update count and hindsight."""
+"""PAS / MPAS train the meta-controller with their own update count and hindsight; a meta
+transition already spans its skill's env steps (no n-step returns)."""
 
 
 def check_task(method: str, task: str) -> None:
