@@ -13,29 +13,14 @@ import pytest
 from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, SearchConfig
 from mjx_skills.methods import ddpg_her_sl_fast as fast
-from mjx_skills.skills.library import SkillLibrary, skill_envs
-from tests.test_search import NAMES, states
+from tests.test_search import NAMES, KnownLibrary, states
 
 CONFIG = DDPGConfig(hidden=(16,))
 
 
 @dataclasses.dataclass(frozen=True)
-class EncodingLibrary:
+class EncodingLibrary(KnownLibrary):
     """A library whose skill policies say who they are: action = (skill / 10, goal)."""
-
-    names: tuple[str, ...] = NAMES
-
-    @property
-    def envs(self):
-        return skill_envs(self.names)
-
-    @property
-    def layout(self):
-        from mjx_skills.envs.baxter import LAYOUT
-
-        return LAYOUT
-
-    allowed = SkillLibrary.allowed
 
     def policy_action(self, skill, obs, goal):
         return jnp.concatenate([skill[:, None] / 10.0, goal], axis=-1)
