@@ -319,7 +319,7 @@ def render(r: Results, draw: bool = True) -> str:
         *table5_1(),
     ]
     lines += ["", "## Where we fall short of the thesis, and why", "", *shorts(r)]
-    for experiment in EXPERIMENTS[: EXPERIMENTS.index("fast") + 1]:  # ablations: in fast's
+    for experiment in EXPERIMENTS[: EXPERIMENTS.index("fast") + 1]:  # the rest: in fast's
         lines += ["", f"## {TITLES[experiment]}", ""]
         if figure(r, experiment, FIGURES / f"{experiment}.png", draw) is not None:
             lines += [f"![{TITLES[experiment]}](figures/{experiment}.png)", ""]
