@@ -25,9 +25,9 @@ from mjx_skills.analysis.claims import (
     LABEL,
     LEARNS,
     THESIS_METHODS,
-    above,
     ci,
     claims,
+    compare,
     reach,
 )
 from mjx_skills.analysis.shorts import shorts
@@ -164,14 +164,6 @@ def cell_rows(r: Results, experiment: str) -> list[list[str]]:
 
 CELL_HEADER = ["task", "method", "seeds x epochs", "last 5 epochs [95 % CI]", "0.9 at epoch",
                "mean over epochs [95 % CI]", "min"]  # fmt: skip
-
-
-def compare(a, b, field: str, names: tuple[str, str]) -> str:
-    """The name of the one of a, b higher in `field` by the interval rule ('overlap' if
-    neither; '' while one is not run)."""
-    if a is None or b is None:
-        return ""
-    return names[0] if above(a, b, field) else names[1] if above(b, a, field) else "overlap"
 
 
 VARIANTS = {"thesis_preset": ("thesis preset", None), "pas_single_goal": ("single goal", None),

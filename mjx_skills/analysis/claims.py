@@ -43,6 +43,14 @@ def above(a: Summary, b: Summary, field: str = "auc") -> bool:
     return getattr(a, field)[1] > getattr(b, field)[2]
 
 
+def compare(a, b, field: str, names: tuple[str, str]) -> str:
+    """The name of the one of a, b higher in `field` by the interval rule ('overlap' if
+    neither; '' while one is not run)."""
+    if a is None or b is None:
+        return ""
+    return names[0] if above(a, b, field) else names[1] if above(b, a, field) else "overlap"
+
+
 def claims(r) -> list[list[str]]:
     """Chapter 6's claims (C1-C14) -> rows of (id, claim, ours, verdict)."""
     g3 = lambda task, method: r.get("fig6_3", task, method)  # noqa: E731

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjx_skills.analysis.claims import ci, reach
+from mjx_skills.analysis.claims import ci, compare, reach
 
 ABLATIONS = {"wide": "wide networks (3 x 64 units instead)",
              "updates": "extra updates (100 per cycle instead of 400)",
@@ -68,18 +68,13 @@ def ablation_rows(r) -> list[list[str]]:
     """One row per ablation of pick_move: what it reaches, and whether the full method is
     faster (its interval of the mean over epochs entirely above the ablation's); the full
     method's row over the ablations' epochs."""
-    from mjx_skills.analysis.claims import above
-
     cell, full = r.find("fast", "pick_move", "ddpg_her_sl_fast")
     rows = []
     for name, why in ABLATIONS.items():
         _, s = r.find(f"fast_no_{name}", "pick_move", "ddpg_her_sl_fast")
         if full is not None and s is not None:
             full = r.first_epochs(cell, full, s.epochs)  # over the ablations' budget
-        verdict = ""
-        if s is not None and full is not None:
-            verdict = ("the full method" if above(full, s) else
-                       "the ablation" if above(s, full) else "overlap")  # fmt: skip
+        verdict = compare(full, s, "auc", ("the full method", "the ablation"))
         rows.append([why, *_cells(s, verdict)])
     return [["(none: the full method)", *_cells(full, None)], *rows]
 

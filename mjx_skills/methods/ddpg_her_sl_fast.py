@@ -122,8 +122,7 @@ def make_ddpg_her_sl_fast(
         return make_behaviour(agent, lib, epoch, env, search, ddpg, own=own)
 
     def evaluate(agent, lib):
-        policy = chosen(agent, lib)
-        return rollout.stateless(lambda k, obs, goal: policy(k, obs, goal))
+        return rollout.stateless(chosen(agent, lib))
 
     return base._replace(explore=explore, evaluate=evaluate)
 

@@ -85,11 +85,12 @@ def cell_seconds(cell: Cell, table: CostTable) -> float:
     from mjx_skills.methods.ddpg_her_sl import epsilon
 
     length = ENVS[cell.task].default_episode_length
-    default = methods.get(cell.method).options.get("search", SearchConfig())
+    groups = methods.get(cell.method).options
+    default = groups.get("search", SearchConfig())
     search = dataclasses.replace(default, **dict(dict(cell.options).get("search", ())))
     # The methods that explore with the search (DDPG+HER+SL and its variants) cost about
     # what DDPG+HER+SL does.
-    searching = "search" in methods.get(cell.method).options
+    searching = "search" in groups
     if searching and search.explorer == "search":
         # Between the eps = 0.001 and eps = 1 epochs in proportion to eps (the search runs
         # only where it is used), over the method's own eps schedule.
