@@ -135,3 +135,32 @@ def test_ddpg_her_sl_trains_on_two_cubes_with_the_one_cube_library(tmp_path):
     (row,) = read_metrics(train_run(args))
     assert row["skill_calls"] > 0
     assert 0.0 < row["explore_object"] < 1.0, row["explore_object"]
+    # The share of cubes at their goals bounds the success (both cubes) from above.
+    assert row["eval_success"] <= row["eval_cubes"] <= 1.0
+
+
+@pytest.mark.parametrize("held", [0, 1])
+def test_the_fast_methods_proposals_transfer_only_the_cube_held(held):
+    """DDPG+HER+SL+Fast's critic picks among proposals made on each cube's view towards that
+    cube's goal: transfer is proposed only on the held cube's view, and each cube's
+    proposals aim at its own part of the 6-D goal."""
+    from mjx_skills.config import SearchConfig
+    from mjx_skills.methods import ddpg_her_sl_fast as fast
+    from tests.test_fast import EncodingLibrary
+    from tests.test_search import NAMES
+
+    two, n, per_cube = make("pick_move_two"), 64, 6
+    obs = _held_scene(two, n, held)
+    goal = jnp.asarray(
+        np.random.default_rng(held).uniform([0.5, -0.4, 0.1] * 2, [0.85, 0.0, 0.2] * 2, (n, 6)),
+        jnp.float32,
+    )
+    actions, ok = fast.propose_any(two, EncodingLibrary(), SearchConfig(), obs, goal,
+                                   jax.random.key(4), per_cube)  # fmt: skip
+    assert actions.shape == (n, 2 * per_cube, 4) and bool(jnp.all(ok))
+    skill = np.rint(np.asarray(actions[..., 0]) * 10).astype(int).reshape(n, 2, per_cube)
+    transfer = NAMES.index("transfer")
+    assert np.all(skill[:, held] == transfer) and not np.any(skill[:, 1 - held] == transfer)
+    aim = np.asarray(actions[..., 1:]).reshape(n, 2, per_cube, 3)[:, held]
+    near = np.linalg.norm(aim - np.asarray(goal).reshape(n, 2, 3)[:, held, None], axis=-1)
+    assert np.mean(near < 0.03 * np.sqrt(3) + 1e-6) > 0.5

@@ -6,10 +6,11 @@ from __future__ import annotations
 import numpy as np
 
 from mjx_skills.analysis.claims import ci, compare, reach
+from mjx_skills.methods.ddpg_her_sl_fast import FAST_SEARCH
 
 ABLATIONS = {"wide": "wide networks (3 x 64 units instead)",
              "updates": "extra updates (100 per cycle instead of 400)",
-             "eps": "short explorer (eps decayed over 30 epochs instead of 15)",
+             "eps": f"short explorer (eps decayed over 30 epochs instead of {FAST_SEARCH.eps_decay_epochs})",
              "pick": "the critic's pick (the actor alone acts)"}  # fmt: skip
 """DDPG+HER+SL+Fast's ingredients, each removed in turn by experiments/fast_no_NAME.toml."""
 EXPERIMENTS = ("fast", "fast_wall", *(f"fast_no_{x}" for x in ABLATIONS))

@@ -148,6 +148,7 @@ METHODS: dict[str, Method] = {
         make_learner=make_ddpg_her_sl_fast,
         unread={"train.updates_per_cycle": "--fast.updates-per-cycle"},
         unread_unless={"fast.proposals": "pick"},
+        any_cubes=True,
     ),
     **{
         name: Method(

@@ -9,7 +9,7 @@ report's ablations remove one at a time:
 - wider networks: 3 x 256 hidden units for actor and critic (`FAST_DDPG.hidden`), the HER
   baselines' width (Plappert et al. 2018), where the thesis has 3 x 64;
 - more gradient steps: `updates_per_cycle` = 400 per cycle (DDPG+HER+SL: 100);
-- a shorter explorer: eps decays over 15 epochs (`FAST_SEARCH`; DDPG+HER+SL: 30), so the
+- a shorter explorer: eps decays over 10 epochs (`FAST_SEARCH`; DDPG+HER+SL: 30), so the
   learner's own episodes come sooner;
 - the critic picks the learner's actions (`pick`): at every step the library proposes
   `proposals` (skill, goal) edges drawn as the look-ahead search draws its first level
@@ -19,7 +19,10 @@ report's ablations remove one at a time:
   over sampled actions (Kalashnikov et al. 2018) with the library as the proposal
   distribution and the actor as one more proposal (Van de Wiele et al. 2020). No tree
   runs for it: one batch of skill-policy and critic calls per step. The policy evaluated
-  is this selecting one (actor, critic and library, frozen during evaluation).
+  is this selecting one (actor, critic and library, frozen during evaluation). In a scene
+  of several cubes each cube gets `proposals` edges, drawn on the scene's projection onto
+  (gripper, that cube) towards its own part of the goal (`propose_any`, as DDPG+HER+SL's
+  search does), and the task's critic, which sees the whole scene, judges them all.
 """
 
 from __future__ import annotations
@@ -35,14 +38,15 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig, check_numbe
 from mjx_skills.core import rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.methods.ddpg_her_sl import make_behaviour, make_ddpg_her_sl
+from mjx_skills.methods.ddpg_her_sl import make_behaviour, make_ddpg_her_sl, object_views
 from mjx_skills.skills import lookahead
 from mjx_skills.skills.library import SkillLibrary
 
 FAST_DDPG = DDPGConfig(hidden=(256, 256, 256))
 """DDPG+HER+SL+Fast's DDPG options: DDPG+HER+SL's, 3 x 256 hidden units."""
-FAST_SEARCH = SearchConfig(eps_decay_epochs=15)
-"""Its explorer's options: DDPG+HER+SL's, eps decayed over 15 epochs."""
+FAST_SEARCH = SearchConfig(eps_decay_epochs=10)
+"""Its explorer's options: DDPG+HER+SL's, eps decayed over 10 epochs (DDPG+HER+SL: 30; this
+method's first version: 15)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,14 +71,29 @@ class FastConfig:
 def propose(
     lib: SkillLibrary, search: SearchConfig, obs: jax.Array, goal: jax.Array, key: jax.Array, n: int
 ) -> tuple[jax.Array, jax.Array]:
-    """The library's proposals: obs (B, obs_dim), goal (B, goal_dim) -> actions (B, n, A) and
-    ok (B, n) bool (False: no skill may act here). Drawn as the search's first level."""
+    """The library's proposals: obs (B, 25), goal (B, 3) (one cube's view and goal) ->
+    actions (B, n, A) and ok (B, n) bool (False: no skill may act here). Drawn as the
+    search's first level."""
     B = obs.shape[0]
     draws = lookahead._draws(key, (B, n), len(lib.names))
     skill, skill_goal, ok = lookahead.sample_edges(lib, search, obs, goal, draws)
     rows = jnp.broadcast_to(obs[:, None], (B, n, obs.shape[-1])).reshape(B * n, -1)
     action = lib.policy_action(skill.reshape(-1), rows, skill_goal.reshape(B * n, -1))
     return action.reshape(B, n, -1), ok
+
+
+def propose_any(
+    env: GoalEnv, lib: SkillLibrary, search: SearchConfig, obs: jax.Array, goal: jax.Array,
+    key: jax.Array, n: int,
+) -> tuple[jax.Array, jax.Array]:  # fmt: skip
+    """`propose` for a scene of c cubes: obs (B, obs_dim), goal (B, 3c) -> actions
+    (B, c n, A), ok (B, c n): n proposals per cube, each made on the scene's projection onto
+    (gripper, that cube) towards that cube's part of the goal (`object_views`), so transfer
+    is proposed only for the held cube."""
+    views = object_views(env, obs)  # (B, c, 25)
+    B, c = views.shape[:2]
+    actions, ok = propose(lib, search, views.reshape(B * c, -1), goal.reshape(B * c, -1), key, n)
+    return actions.reshape(B, c * n, -1), ok.reshape(B, c * n)
 
 
 def pick(
@@ -86,12 +105,16 @@ def pick(
     key: jax.Array,
     n: int,
     config: DDPGConfig,
+    env: GoalEnv | None = None,
 ) -> tuple[jax.Array, jax.Array]:
-    """The critic's choice among the actor's action and `n` library proposals: obs (B,
-    obs_dim), goal (B, goal_dim) -> (action (B, A), proposal_taken (B,) bool). Ties go to
-    the actor."""
+    """The critic's choice among the actor's action and the library's proposals (`n` per
+    cube, `propose_any`; `env` None: a one-cube scene): obs (B, obs_dim), goal (B, goal_dim)
+    -> (action (B, A), proposal_taken (B,) bool). Ties go to the actor."""
     own = ddpg.act(agent, obs, goal, config)
-    proposed, ok = propose(lib, search, obs, goal, key, n)
+    if env is None:
+        proposed, ok = propose(lib, search, obs, goal, key, n)
+    else:
+        proposed, ok = propose_any(env, lib, search, obs, goal, key, n)
     candidates = jnp.concatenate([own[:, None], proposed], axis=1)  # (B, 1 + n, A)
     rows = lambda x: jnp.broadcast_to(x[:, None], (*candidates.shape[:2], x.shape[-1]))  # noqa: E731
     q = ddpg.q_value(agent, rows(obs), rows(goal), candidates, config)  # (B, 1 + n)
@@ -113,7 +136,7 @@ def make_ddpg_her_sl_fast(
         return base
 
     def chosen(agent, lib):
-        return lambda key, obs, goal: pick(agent, lib, search, obs, goal, key, n, ddpg)[0]
+        return lambda key, obs, goal: pick(agent, lib, search, obs, goal, key, n, ddpg, env)[0]
 
     def explore(agent, lib, epoch):
         if search.explorer == "scripted":  # the oracle explores; the pick acts in evaluation

@@ -52,15 +52,20 @@ class TrainCarry:
 
 def make_evaluate(learner: Learner, env: GoalEnv, train: TrainConfig):
     """-> evaluate(agent, aux, key) -> {eval_success, eval_distance}: `eval_episodes`
-    episodes with the deterministic behaviour, success read at the last step (as the thesis)."""
+    episodes with the deterministic behaviour, success read at the last step (as the thesis).
+    In a scene of several cubes also `eval_cubes`: the share of cubes at their goals at the
+    last step (1/2 where one of two cubes got there), which says which stage fails."""
 
     def evaluate(agent: Any, aux: Any, key: jax.Array) -> dict[str, jax.Array]:
         behaviour = learner.evaluate(agent, aux)
         _, final, _ = rollout.run_episodes(env, behaviour, key, train.eval_episodes)
-        return {
+        out = {
             "eval_success": final.metrics["success"].mean(),
             "eval_distance": final.metrics["distance"].mean(),
         }
+        if env.n_objects > 1:
+            out["eval_cubes"] = env.cube_success(final.achieved_goal, final.desired_goal).mean()
+        return out
 
     return evaluate
 
