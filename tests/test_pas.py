@@ -79,6 +79,7 @@ def test_coarse_hindsight_relabels_with_a_later_meta_steps_achieved_goal(hindsig
     env = SimpleNamespace(
         compute_reward=lambda a, d: jnp.where(jnp.abs(a - d)[..., 0] < 0.5, 0.0, -1.0),
         grasped=lambda obs: jnp.zeros(obs.shape[:-1], bool),
+        n_objects=1,
     )
     cfg = PASConfig(hindsight=hindsight, relabel_prob=1.0)
     sampled = pas.sample_batch(buffer, jax.random.PRNGKey(0), 500, env, cfg, LIBRARIES["SL1"])
@@ -123,7 +124,8 @@ def test_a_meta_step_is_the_skills_own_run(env_factory):
     meta = jnp.full((pas.meta_dim(K),), -1.0).at[transit].set(1.0)
     meta = meta.at[K + 3 * transit : K + 3 * transit + 3].set(x)
     cfg = PASConfig(skill_steps=6, critic="joint")
-    behaviour = pas.make_behaviour(_constant_meta_agent(meta), lib, cfg, DDPGConfig(), noisy=False)
+    behaviour = pas.make_behaviour(_constant_meta_agent(meta), lib, env, cfg, DDPGConfig(),
+                                   noisy=False)  # fmt: skip
     key = jax.random.PRNGKey(3)
     episodes, _, records = jax.jit(lambda k: rollout.run_episodes(env, behaviour, k, 2))(key)
     # By hand: the same resets, then transit's policy towards goal_from_param(x).

@@ -43,11 +43,12 @@ def test_two_cube_tasks_score_both_cubes_and_refuse_held_starts():
         make("pick_move_two", held_start_prob=0.5)
 
 
-def test_library_methods_refuse_two_cube_tasks_before_writing_anything(tmp_path):
+def test_the_joint_pas_critic_refuses_two_cube_tasks_before_writing_anything(tmp_path):
     from mjx_skills import train
 
     with pytest.raises(SystemExit, match="one-cube tasks; two_in_container has 2 cubes"):
-        train.main(["mpas", "--task", "two_in_container", "--out", str(tmp_path)])
+        train.main(["mpas", "--task", "two_in_container", "--pas.critic", "joint",
+                    "--out", str(tmp_path)])  # fmt: skip
     assert not any(tmp_path.iterdir())
 
 
@@ -57,7 +58,7 @@ def test_a_library_skill_acts_on_cube_k_as_on_the_cube_of_a_one_cube_scene(k):
     """The committed library (trained with one cube), applied to cube k of a two-cube scene
     through the projection, gives the actions it gives in the one-cube scene holding only
     that cube (grip and cube where they are), for every skill and goal."""
-    from mjx_skills.methods.ddpg_her_sl import object_views
+    from mjx_skills.envs.two_objects import object_views
     from mjx_skills.skills.library import load
 
     lib, _ = load(DEFAULT_DIR)
@@ -121,17 +122,21 @@ def test_the_search_never_plans_a_transfer_of_the_cube_not_held(held):
 
 
 @pytest.mark.skipif(not (DEFAULT_DIR / "manifest.json").exists(), reason="no built skill library")
-def test_ddpg_her_sl_trains_on_two_cubes_with_the_one_cube_library(tmp_path):
-    """A whole (tiny) run of DDPG+HER+SL on pick_move_two: the library's skills drive steps
-    on both cubes (the logged mean cube index lies strictly between 0 and 1)."""
-    from mjx_skills.config import EnvConfig, SearchConfig, TrainConfig
+@pytest.mark.parametrize("method", ["ddpg_her_sl", "mpas"])
+def test_library_methods_train_on_two_cubes_with_the_one_cube_library(tmp_path, method):
+    """A whole (tiny) run on pick_move_two: the library's skills drive steps on both cubes
+    (the logged mean cube index lies strictly between 0 and 1)."""
+    from mjx_skills.config import EnvConfig, PASConfig, SearchConfig, TrainConfig
     from mjx_skills.training.metrics_log import read_metrics
     from mjx_skills.training.runner import RunArgs, train_run
 
-    train = TrainConfig(task="pick_move_two", epochs=1, envs=4, cycles=1, updates_per_cycle=2,
+    sl = method == "ddpg_her_sl"
+    train = TrainConfig(task="pick_move_two", epochs=1, envs=4, cycles=1,
+                        updates_per_cycle=2 if sl else TrainConfig().updates_per_cycle,
                         eval_episodes=2, replay_capacity=2000, progress=False, out=str(tmp_path))  # fmt: skip
-    args = RunArgs(train=train, method="ddpg_her_sl", env=EnvConfig(episode_length=40),
-                   options={"search": SearchConfig(branching=3, height=2)})  # fmt: skip
+    options = ({"search": SearchConfig(branching=3, height=2)} if sl
+               else {"pas": PASConfig(hindsight=True, updates_per_cycle=2, skill_steps=5)})  # fmt: skip
+    args = RunArgs(train=train, method=method, env=EnvConfig(episode_length=40), options=options)
     (row,) = read_metrics(train_run(args))
     assert row["skill_calls"] > 0
     assert 0.0 < row["explore_object"] < 1.0, row["explore_object"]
@@ -164,3 +169,50 @@ def test_the_fast_methods_proposals_transfer_only_the_cube_held(held):
     aim = np.asarray(actions[..., 1:]).reshape(n, 2, per_cube, 3)[:, held]
     near = np.linalg.norm(aim - np.asarray(goal).reshape(n, 2, 3)[:, held, None], axis=-1)
     assert np.mean(near < 0.03 * np.sqrt(3) + 1e-6) > 0.5
+
+
+@pytest.mark.parametrize("held", [0, 1])
+def test_mpas_chooses_cube_and_skill_and_transfers_only_the_cube_held(held):
+    """MPAS's meta-controller in a two-cube scene chooses among (cube, skill) pairs: exploring
+    at random over many envs it picks both cubes and transfer, transfer only for the held
+    cube; the chosen skill's policy sees the chosen cube's view, and a grasp's goal is named
+    on that view (above that cube)."""
+    from mjx_skills.agents import mpdqn
+    from mjx_skills.config import DDPGConfig, PASConfig
+    from mjx_skills.envs.baxter import OBS_OBJECT
+    from mjx_skills.methods import pas
+    from tests.test_search import NAMES, EnvState, KnownLibrary
+
+    class ViewLibrary(KnownLibrary):
+        """Its policies say which skill acts and where the cube of their view is."""
+
+        def policy_action(self, skill, obs, goal):
+            return jnp.concatenate([skill[:, None] / 10.0, obs[:, OBS_OBJECT]], axis=-1)
+
+        def reached(self, skill, obs, goal):
+            return jnp.zeros(skill.shape, bool)
+
+    two, n, K = make("pick_move_two"), 512, len(NAMES)
+    obs = _held_scene(two, n, held)
+    goal = jnp.asarray(
+        np.random.default_rng(held).uniform([0.5, -0.4, 0.1] * 2, [0.85, 0.0, 0.2] * 2, (n, 6)),
+        jnp.float32,
+    )
+    state = EnvState(obs=obs, desired_goal=goal, achieved_goal=two.achieved_from_obs(obs))
+    config = DDPGConfig(hidden=(16,), random_eps=1.0)  # a uniformly random allowed choice
+    agent = mpdqn.init(jax.random.PRNGKey(1), 40, 6, 2 * K, config)
+    beh = pas.make_behaviour(agent, ViewLibrary(), two, PASConfig(), config, noisy=True)
+    ms, action, record = jax.jit(beh.step)(beh.init(jax.random.PRNGKey(0), n),
+                                           jax.random.PRNGKey(3), state)  # fmt: skip
+    choice = np.asarray(ms.skill)
+    cube, skill = choice // K, choice % K
+    transfer = skill == NAMES.index("transfer")
+    assert transfer.any() and (cube != held).any(), "both kinds of choice were made"
+    assert np.all(cube[transfer] == held)
+    np.testing.assert_array_equal(np.rint(np.asarray(action[:, 0]) * 10), skill)
+    cubes = np.asarray(two.achieved_from_obs(obs)).reshape(n, 2, 3)
+    np.testing.assert_allclose(np.asarray(action[:, 1:]), cubes[np.arange(n), cube], atol=1e-5)
+    grasp = skill == NAMES.index("grasp")
+    chosen_goal = np.asarray(record["meta_action"])[:, 2 * K :]
+    assert grasp.any()
+    np.testing.assert_allclose(chosen_goal[grasp, :2], cubes[grasp, cube[grasp], :2], atol=1e-5)

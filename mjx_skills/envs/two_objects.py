@@ -28,6 +28,15 @@ MIN_APART = 0.07
 """Starts and goals of the two cubes keep their centres this far apart (m, xy)."""
 
 
+def object_views(env, obs: jax.Array) -> jax.Array:
+    """obs (..., obs_dim) of any task -> (..., n, 25): the scene seen as (gripper, cube k)
+    for each of its n cubes (`TwoObjects.project`), the one-cube observation a library skill
+    was trained on; a one-cube task's observation as it is (n = 1)."""
+    if env.n_objects == 1:
+        return obs[..., None, :]
+    return jnp.stack([env.project(obs, k) for k in range(env.n_objects)], axis=-2)
+
+
 class TwoObjects(BaxterEnv):
     """Mixin over a one-cube task: both cubes placed at reset, observed and scored."""
 

@@ -41,10 +41,6 @@ class Method:
     unread_unless: dict[str, str] = dataclasses.field(default_factory=dict)
     """Options it reads only while a switch of the same group is on ("group.field" ->
     "switch"); setting one with the switch off is an error."""
-    any_cubes: bool = False
-    """Its library skills act on any cube of a scene through the scene's projection onto
-    (gripper, cube k) (DDPG+HER+SL's explorer), so it runs the two-cube tasks too; the
-    other library methods run the one-cube tasks only."""
 
     @property
     def library_group(self) -> str | None:
@@ -85,17 +81,19 @@ PAS_UNREAD = {
 transition already spans its skill's env steps (no n-step returns)."""
 
 
-def check_task(method: str, task: str) -> None:
-    """ValueError if `method` cannot run `task`: a library method whose skills act on one
-    cube only (not `any_cubes`) runs the one-cube tasks only."""
+def check_task(method: str, task: str, options: dict[str, Any] | None = None) -> None:
+    """ValueError if `method` cannot run `task`. Every method runs every task (the library's
+    skills act on any cube through the scene's projection onto (gripper, that cube)) except
+    PAS / MPAS with the thesis's joint critic, which runs the one-cube tasks only
+    (`options`: the method's option groups)."""
     from mjx_skills.envs.registry import ENVS
 
+    get(method)
     cubes = ENVS[task].n_objects
-    spec = get(method)
-    if spec.library_group is not None and not spec.any_cubes and cubes != 1:
-        valid = [name for name, m in METHODS.items() if m.library_group is None or m.any_cubes]
-        raise ValueError(f"{method} runs on one-cube tasks; {task} has {cubes} cubes "
-                         f"(every task: {', '.join(valid)})")  # fmt: skip
+    pas = (options or {}).get("pas")
+    if pas is not None and pas.critic == "joint" and cubes != 1:
+        raise ValueError(f"--pas.critic joint (the thesis's critic) runs on one-cube tasks; "
+                         f"{task} has {cubes} cubes: use --pas.critic per_skill")  # fmt: skip
 
 
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
@@ -129,7 +127,6 @@ METHODS: dict[str, Method] = {
         "(thesis ch. 5)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig()},
         make_learner=make_ddpg_her_sl,
-        any_cubes=True,
     ),
     "ddpg_her_sl_bc": Method(
         name="ddpg_her_sl_bc",
@@ -137,7 +134,6 @@ METHODS: dict[str, Method] = {
         "critic agrees (Q-filtered behaviour cloning; beyond the thesis)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig(), "bc": BCConfig()},
         make_learner=make_ddpg_her_sl_bc,
-        any_cubes=True,
     ),
     "ddpg_her_sl_fast": Method(
         name="ddpg_her_sl_fast",
@@ -148,7 +144,6 @@ METHODS: dict[str, Method] = {
         make_learner=make_ddpg_her_sl_fast,
         unread={"train.updates_per_cycle": "--fast.updates-per-cycle"},
         unread_unless={"fast.proposals": "pick"},
-        any_cubes=True,
     ),
     **{
         name: Method(

@@ -25,6 +25,7 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.core import rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
+from mjx_skills.envs.two_objects import object_views
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.skills import execution, lookahead, stalls
 from mjx_skills.skills.library import SkillLibrary
@@ -42,14 +43,6 @@ class ExploreState:
     """(B,) int32 stalls so far this episode (the ring buffer's write position)."""
     obj: jax.Array
     """(B,) int32 the cube the running skill acts on (0 in a one-cube scene)."""
-
-
-def object_views(env: GoalEnv, obs: jax.Array) -> jax.Array:
-    """obs (B, obs_dim) -> (B, n, 25): the scene seen as (gripper, cube k) for each of its n
-    cubes, the one-cube observation a library skill was trained on (`project`)."""
-    if env.n_objects == 1:
-        return obs[:, None]
-    return jnp.stack([env.project(obs, k) for k in range(env.n_objects)], axis=1)
 
 
 def _row(x: jax.Array, k: jax.Array) -> jax.Array:

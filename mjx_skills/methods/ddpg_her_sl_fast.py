@@ -38,7 +38,8 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig, check_numbe
 from mjx_skills.core import rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.methods.ddpg_her_sl import make_behaviour, make_ddpg_her_sl, object_views
+from mjx_skills.envs.two_objects import object_views
+from mjx_skills.methods.ddpg_her_sl import make_behaviour, make_ddpg_her_sl
 from mjx_skills.skills import lookahead
 from mjx_skills.skills.library import SkillLibrary
 

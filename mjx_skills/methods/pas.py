@@ -19,6 +19,12 @@ with the achieved goal at the end of a later meta step of the same episode (hind
 the coarse level) and recomputes the reward; PAS keeps the task's goal. Both see the goal
 as an input: our tasks draw a goal per episode, where the single-goal formulation of [21]
 fixes one, so PAS differs from MPAS by hindsight alone.
+
+In a scene of c cubes (per-skill critic only) the meta-controller chooses among (cube,
+skill) pairs, cube-major, each with its parameters: skill k acts on cube j through the
+scene's projection onto (gripper, cube j) (`object_views`), its goal named on that view,
+and transfer may start only on the held cube's view. The library is the one-cube one, as
+it is. (Option index = j K + k; with one cube, the skill index.)
 """
 
 from __future__ import annotations
@@ -34,6 +40,7 @@ from mjx_skills.core import replay, rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.skills import PARAM_DIM
+from mjx_skills.envs.two_objects import object_views
 from mjx_skills.skills import execution
 from mjx_skills.skills.library import SkillLibrary, allowed_skills, skill_envs
 
@@ -68,23 +75,53 @@ def choose(lib: SkillLibrary, meta_action: jax.Array, obs: jax.Array):
     return skill, lib.goal_from_param(skill, param, obs)
 
 
+def option_goals(env: GoalEnv, envs) -> mpdqn.SkillGoals:
+    """Every (cube, skill) choice's goal from its parameters, named on that cube's view:
+    params (..., c K, PARAM_DIM), obs (..., obs_dim) -> (..., c K, 3)."""
+    goals, K = mpdqn.skill_goals(envs), len(envs)
+
+    def fn(params, obs):
+        views = object_views(env, obs)
+        return jnp.concatenate([goals(params[..., j * K : (j + 1) * K, :], views[..., j, :])
+                                for j in range(views.shape[-2])], axis=-2)  # fmt: skip
+
+    return fn
+
+
+def option_allowed(env: GoalEnv, names: tuple[str, ...], obs: jax.Array) -> jax.Array:
+    """obs (..., obs_dim) -> (..., c K) bool: the (cube, skill) choices that may start here
+    (transfer only on the held cube's view)."""
+    allowed = allowed_skills(names, env.grasped(object_views(env, obs)))
+    return allowed.reshape(*obs.shape[:-1], -1)
+
+
 def make_behaviour(
-    agent: ddpg.DDPGState, lib: SkillLibrary, cfg: PASConfig, ddpg_config: DDPGConfig, noisy: bool
+    agent: ddpg.DDPGState,
+    lib: SkillLibrary,
+    env: GoalEnv,
+    cfg: PASConfig,
+    ddpg_config: DDPGConfig,
+    noisy: bool,
 ) -> rollout.Behaviour:
     """Meta-controller plus library policies as one behaviour; `noisy`: DDPG's exploration
-    (Gaussian noise on scores and parameters, random_eps uniform meta actions)."""
+    (Gaussian noise on scores and parameters, random_eps uniform meta actions). The
+    running skill's index is its (cube, skill) choice (`option_goals`)."""
+    K = len(lib.names)
+    goals = option_goals(env, lib.envs)
 
     def init(key, n):
         return execution.idle(n)
 
     def step(ms: execution.Running, key, state):
         obs, task_goal = state.obs, state.desired_goal
-        done = _stopped(lib, ms.skill, obs, ms.goal, cfg.drop_distance)
+        views = object_views(env, obs)  # (B, c, 25)
+        seen = lambda choice: jnp.take_along_axis(views, (choice // K)[:, None, None], 1)[:, 0]  # noqa: E731
+        done = _stopped(lib, ms.skill % K, seen(ms.skill), ms.goal, cfg.drop_distance)
         decide = execution.decide(ms, done | (ms.steps >= cfg.skill_steps))
         if cfg.critic == "per_skill":
-            new_skill, new_goal, meta = mpdqn.choose(agent, obs, task_goal, lib.allowed(obs),
-                                                    mpdqn.skill_goals(lib.envs), ddpg_config,
-                                                    key if noisy else None)  # fmt: skip
+            new_skill, new_goal, meta = mpdqn.choose(agent, obs, task_goal,
+                                                    option_allowed(env, lib.names, obs), goals,
+                                                    ddpg_config, key if noisy else None)  # fmt: skip
         else:
             if noisy:
                 meta = ddpg.explore(agent, key, obs, task_goal, ddpg_config)
@@ -100,9 +137,10 @@ def make_behaviour(
             "meta_action": meta,
             "skill": new.skill,
             "ended": ended,
-            "ended_at_goal": ended & lib.reached(ms.skill, obs, ms.goal),
+            "ended_at_goal": ended & lib.reached(ms.skill % K, seen(ms.skill), ms.goal),
         }
-        return new, lib.policy_action(new.skill, obs, new.goal), record
+        action = lib.policy_action(new.skill % K, seen(new.skill), new.goal)
+        return new, action, record
 
     return rollout.Behaviour(init=init, step=step)
 
@@ -168,20 +206,24 @@ def sample_batch(
         "action": d.action[ep, j],
         "reward": reward,
         "terminal": (reward == 0.0).astype(jnp.float32) * cfg.terminal_at_goal,
-        "allowed": allowed_skills(names, env.grasped(obs)),
-        "next_allowed": allowed_skills(names, env.grasped(next_obs)),
+        "allowed": option_allowed(env, names, obs),
+        "next_allowed": option_allowed(env, names, next_obs),
     }
 
 
-def summarize(names: tuple[str, ...]):
-    """-> records -> per-cycle metrics: the share of each skill among the choices, the mean
-    env steps per meta step and the share of ended skills that reached their goal."""
+def summarize(names: tuple[str, ...], cubes: int = 1):
+    """-> records -> per-cycle metrics: the share of each skill among the choices (and, with
+    several cubes, the mean cube index chosen, `object`), the mean env steps per meta step
+    and the share of ended skills that reached their goal."""
 
     def fn(records: dict[str, jax.Array]) -> dict[str, jax.Array]:
         decision = records["decision"]
         n_choices = jnp.maximum(jnp.sum(decision), 1)
-        shares = {f"share_{name}": jnp.sum(decision & (records["skill"] == i)) / n_choices
+        skill = records["skill"] % len(names)
+        shares = {f"share_{name}": jnp.sum(decision & (skill == i)) / n_choices
                   for i, name in enumerate(names)}  # fmt: skip
+        if cubes > 1:
+            shares["object"] = jnp.sum(decision * (records["skill"] // len(names))) / n_choices
         ended = jnp.maximum(jnp.sum(records["ended"]), 1)
         return {
             **shares,
@@ -201,10 +243,11 @@ def make_pas(
     from mjx_skills.skills.library import library_skills
 
     names = library_skills(pas.library)
+    options = env.n_objects * len(names)  # (cube, skill) choices
 
     def init(key):
         if pas.critic == "per_skill":
-            return mpdqn.init(key, env.obs_dim, env.goal_dim, len(names), ddpg)
+            return mpdqn.init(key, env.obs_dim, env.goal_dim, options, ddpg)
         return agent_ops.init(key, env.obs_dim, env.goal_dim, meta_dim(len(names)), ddpg,
                               bounds="invert")  # fmt: skip
 
@@ -216,14 +259,14 @@ def make_pas(
         batch = sample_batch(buffer, key, n * b, env, pas, names)
         batches = jax.tree.map(lambda x: x.reshape(n, b, *x.shape[1:]), batch)
         if pas.critic == "per_skill":
-            return mpdqn.update(agent, batches, mpdqn.skill_goals(skill_envs(names)), ddpg)
+            return mpdqn.update(agent, batches, option_goals(env, skill_envs(names)), ddpg)
         return agent_ops.update(agent, batches, ddpg)
 
     return Learner(
         init=init,
-        explore=lambda agent, lib, epoch: make_behaviour(agent, lib, pas, ddpg, noisy=True),
-        evaluate=lambda agent, lib: make_behaviour(agent, lib, pas, ddpg, noisy=False),
+        explore=lambda agent, lib, epoch: make_behaviour(agent, lib, env, pas, ddpg, noisy=True),
+        evaluate=lambda agent, lib: make_behaviour(agent, lib, env, pas, ddpg, noisy=False),
         store=store,
         update=update,
-        summarize=summarize(names),
+        summarize=summarize(names, env.n_objects),
     )

@@ -113,7 +113,7 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     check_name(args.train.task)
     options = args.full_options()  # unknown methods and option groups fail before any write
     methods.check_read(args.method, args.train, options)  # so do options it would ignore
-    methods.check_task(args.method, args.train.task)
+    methods.check_task(args.method, args.train.task, options)
     # Read-only method inputs (the skill library) enter the jitted epoch here, never donated;
     # a missing library fails here too, before a run directory is made.
     spec = methods.get(args.method)
