@@ -67,3 +67,24 @@ def test_verdict_rules():
 def test_the_committed_report_is_what_the_committed_data_gives():
     """`python -m mjx_skills.report --check`: any hand edit or stale number fails."""
     report.main(["--check"])
+
+
+def test_the_two_cube_bar_needs_a_library_method_high_and_ddpg_her_near_zero():
+    from mjx_skills.analysis import two_cubes
+
+    class Fake:
+        def __init__(self, **last):
+            self.last = last
+
+        def get(self, experiment, task, method):
+            value = self.last.get(method)
+            return None if value is None else _summary((value, value - 0.05, value + 0.05))
+
+    def said(**last):
+        return " ".join(two_cubes.verdict(Fake(**last)))
+
+    assert "**met**" in said(ddpg_her=0.0, mpas=0.3, ddpg_her_sl=0.85)
+    assert "Best: DDPG+HER+SL" in said(ddpg_her=0.0, mpas=0.3, ddpg_her_sl=0.85)
+    assert "**not met**" in said(ddpg_her=0.0, mpas=0.3, ddpg_her_sl=0.75)
+    assert "**not met**" in said(ddpg_her=0.2, mpas=0.9, ddpg_her_sl=0.1)
+    assert "not all its cells are run yet" in said(ddpg_her=0.0, ddpg_her_sl=0.9)
