@@ -176,6 +176,7 @@ def _make_train(run: dict) -> str:
     busy = (f" The machine was not idle (1-minute load average {run['load_before']:.1f} at the "
             f"start: other runs shared its 2 cores), so the times are upper bounds."
             if run.get("load_before", 0) > 0.5 else "")  # fmt: skip
+    busy += f" Measured at commit `{run['commit']}`." if "commit" in run else ""
     return (f"**`{command}`** (one seed, `{run['curve']}`): the 5-epoch rolling "
             f"mean of eval success first reaches 0.90 at epoch {hit}, **{(start + wall[hit]) / 60:.1f} "
             f"min** after the command started (compile included); the {len(wall)} epochs took "
