@@ -341,9 +341,15 @@ class SearchConfig:
     """... decaying linearly to this (thesis: 0.001) ..."""
     eps_decay_epochs: int = 30
     """... over this many epochs."""
+    grasp_reach: float = 0.0
+    """Grasp's initiation set: where > 0, the search may start grasp only with the gripper
+    within this distance (m) of the cube, where the grasp skill was trained (its starts lie
+    within 5 cm, `envs.skills.Grasp`); farther away it plans transit first. 0: grasp may
+    start anywhere with an empty gripper (the thesis)."""
 
     def __post_init__(self) -> None:
         check_numbers(self)
+        _check(self.grasp_reach >= 0.0, "grasp_reach", "must be >= 0 (0: off)")
         for name in ("branching", "height", "skill_steps", "eps_decay_epochs"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")
         _check(0.0 <= self.prune_below < 1.0, "prune_below", "must lie in [0, 1)")

@@ -12,10 +12,12 @@ import pytest
 
 from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, SearchConfig
+from mjx_skills.envs import make
 from mjx_skills.methods import ddpg_her_sl_fast as fast
 from tests.test_search import NAMES, KnownLibrary, states
 
 CONFIG = DDPGConfig(hidden=(16,))
+ONE_CUBE = make("pick_move")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,6 +52,6 @@ def test_the_critic_picks_the_best_candidate_and_ties_go_to_the_actor(monkeypatc
     for target, from_library in ((proposals[:, 3], True), (own, False)):
         rigged = lambda s, o, g, a, c, t=target: -jnp.sum((a - t[:, None]) ** 2, axis=-1)  # noqa: E731
         monkeypatch.setattr(ddpg, "q_value", rigged)
-        action, taken = fast.pick(agent, lib, SearchConfig(), obs, goal, key, 5, CONFIG)
+        action, taken = fast.pick(agent, lib, SearchConfig(), obs, goal, key, 5, CONFIG, ONE_CUBE)
         np.testing.assert_allclose(action, target, atol=1e-6)
         assert bool(jnp.all(taken == from_library))

@@ -281,7 +281,8 @@ def test_a_solved_task_holds_still(env):
 # Obstacles remembered where a skill stalled, and waypoint transfer goals (`stalls.py`): the
 # explorer's online correction of coarse models that never saw container_wall's wall.
 
-TRANSFER = NAMES.index("transfer")
+TRANSFER, GRASP = NAMES.index("transfer"), NAMES.index("grasp")
+Z = jnp.array([0.0, 0.0, 1.0])
 
 
 def test_segments_near_an_obstacle_are_blocked_and_grasp_never_is():
@@ -368,6 +369,27 @@ def test_waypoints_spread_transfer_goals_over_the_goal_box(env):
         assert (dist > 0.031).sum() >= far
         low, high = lib.envs[TRANSFER].object_goal_box()
         assert np.all((np.asarray(goals) >= low - 1e-6) & (np.asarray(goals) <= high + 1e-6))
+
+
+def test_grasp_starts_only_within_its_initiation_set_and_the_search_plans_transit_first(env):
+    """With grasp_reach r, no grasp edge is drawn where the gripper is farther than r from
+    the cube, so the search's first skill there is transit; within r grasp is drawn; with
+    r = 0 (the thesis) grasp is drawn anywhere with an empty gripper."""
+    free, goal = states(64, held=False)  # the gripper 6-16 cm above the cube: out of reach
+    near = consistent(LAYOUT, free.at[:32, OBS_GRIP].set(free[:32, OBS_OBJECT] + 0.03 * Z))
+    far = np.linalg.norm(np.asarray(near[:, OBS_OBJECT] - near[:, OBS_GRIP]), axis=-1) > 0.06
+    assert far.tolist() == [False] * 32 + [True] * 32
+    for reach in (0.0, 0.06):
+        cfg = SearchConfig(grasp_reach=reach)
+        draws = lookahead.draw_edges(lookahead.env_keys(jax.random.PRNGKey(0), 64), cfg, 3)
+        skill, _, ok = lookahead.sample_edges(
+            KnownLibrary(), cfg, near, goal, lookahead.level_draws(draws, 0, cfg.branching)
+        )
+        grasp = np.asarray(skill == GRASP) & np.asarray(ok)
+        assert np.asarray(ok).all() and grasp[~far].any()
+        assert grasp[far].any() == (reach == 0.0)
+    found = lookahead.search(KnownLibrary(), cfg, env, near, goal, jax.random.PRNGKey(1))
+    assert set(np.asarray(found.skill)[far]) == {0}
 
 
 @dataclasses.dataclass(frozen=True)

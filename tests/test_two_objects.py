@@ -93,6 +93,18 @@ def _held_scene(two, n: int, held: int) -> jax.Array:
     return obs
 
 
+def _free_scene(two, n: int) -> jax.Array:
+    """(n, 40) observations: both cubes on the table 10 cm apart in y, the gripper open."""
+    from mjx_skills.envs.baxter import LAYOUT, OBS_OBJECT
+    from mjx_skills.envs.two_objects import _CUBE_1
+    from mjx_skills.skills.library import consistent
+    from tests.test_search import states
+
+    free, _ = states(n, held=False)
+    other = consistent(LAYOUT, free.at[:, OBS_OBJECT].add(jnp.array([0.0, 0.1, 0.0])))
+    return jnp.concatenate([free, other[:, _CUBE_1]], axis=1)
+
+
 @pytest.mark.parametrize("held", [0, 1])
 @pytest.mark.parametrize("held_at_goal", [False, True])
 def test_the_search_never_plans_a_transfer_of_the_cube_not_held(held, held_at_goal):
@@ -180,11 +192,12 @@ def test_the_fast_methods_proposals_transfer_only_the_cube_held(held):
 
 
 @pytest.mark.parametrize("held", [0, 1])
-def test_mpas_chooses_cube_and_skill_and_transfers_only_the_cube_held(held):
-    """MPAS's meta-controller in a two-cube scene chooses among (cube, skill) pairs: exploring
-    at random over many envs it picks both cubes and transfer, transfer only for the held
-    cube; the chosen skill's policy sees the chosen cube's view, and a grasp's goal is named
-    on that view (above that cube)."""
+def test_mpas_chooses_cube_and_skill_and_a_held_cube_is_only_transferred(held):
+    """MPAS's meta-controller in a two-cube scene chooses among (cube, skill) pairs. Exploring
+    at random over many envs: with a cube in hand its only choice is transferring that cube
+    (transit and grasp need an empty gripper, which the other cube's view does not show);
+    with both cubes on the table it picks either cube, never transfer. The chosen skill's
+    policy sees the chosen cube's view, and a grasp's goal is named on that view."""
     from mjx_skills.agents import mpdqn
     from mjx_skills.config import DDPGConfig, PASConfig
     from mjx_skills.envs.baxter import OBS_OBJECT
@@ -201,7 +214,8 @@ def test_mpas_chooses_cube_and_skill_and_transfers_only_the_cube_held(held):
             return jnp.zeros(skill.shape, bool)
 
     two, n, K = make("pick_move_two"), 512, len(NAMES)
-    obs = _held_scene(two, n, held)
+    holding = np.arange(n) < n // 2
+    obs = jnp.concatenate([_held_scene(two, n // 2, held), _free_scene(two, n // 2)])
     goal = jnp.asarray(
         np.random.default_rng(held).uniform([0.5, -0.4, 0.1] * 2, [0.85, 0.0, 0.2] * 2, (n, 6)),
         jnp.float32,
@@ -215,8 +229,8 @@ def test_mpas_chooses_cube_and_skill_and_transfers_only_the_cube_held(held):
     choice = np.asarray(ms.skill)
     cube, skill = choice // K, choice % K
     transfer = skill == NAMES.index("transfer")
-    assert transfer.any() and (cube != held).any(), "both kinds of choice were made"
-    assert np.all(cube[transfer] == held)
+    assert np.all(cube[holding] == held) and np.all(transfer[holding])
+    assert not transfer[~holding].any() and set(cube[~holding]) == {0, 1}
     np.testing.assert_array_equal(np.rint(np.asarray(action[:, 0]) * 10), skill)
     cubes = np.asarray(two.achieved_from_obs(obs)).reshape(n, 2, 3)
     np.testing.assert_allclose(np.asarray(action[:, 1:]), cubes[np.arange(n), cube], atol=1e-5)

@@ -106,16 +106,13 @@ def pick(
     key: jax.Array,
     n: int,
     config: DDPGConfig,
-    env: GoalEnv | None = None,
+    env: GoalEnv,
 ) -> tuple[jax.Array, jax.Array]:
     """The critic's choice among the actor's action and the library's proposals (`n` per
-    cube, `propose_any`; `env` None: a one-cube scene): obs (B, obs_dim), goal (B, goal_dim)
-    -> (action (B, A), proposal_taken (B,) bool). Ties go to the actor."""
+    cube of `env`'s scene, `propose_any`): obs (B, obs_dim), goal (B, goal_dim) -> (action
+    (B, A), proposal_taken (B,) bool). Ties go to the actor."""
     own = ddpg.act(agent, obs, goal, config)
-    if env is None:
-        proposed, ok = propose(lib, search, obs, goal, key, n)
-    else:
-        proposed, ok = propose_any(env, lib, search, obs, goal, key, n)
+    proposed, ok = propose_any(env, lib, search, obs, goal, key, n)
     candidates = jnp.concatenate([own[:, None], proposed], axis=1)  # (B, 1 + n, A)
     rows = lambda x: jnp.broadcast_to(x[:, None], (*candidates.shape[:2], x.shape[-1]))  # noqa: E731
     q = ddpg.q_value(agent, rows(obs), rows(goal), candidates, config)  # (B, 1 + n)

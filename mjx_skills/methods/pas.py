@@ -89,9 +89,12 @@ def option_goals(env: GoalEnv, envs) -> mpdqn.SkillGoals:
 
 
 def option_allowed(env: GoalEnv, names: tuple[str, ...], obs: jax.Array) -> jax.Array:
-    """obs (..., obs_dim) -> (..., c K) bool: the (cube, skill) choices that may start here
-    (transfer only on the held cube's view)."""
-    allowed = allowed_skills(names, env.grasped(object_views(env, obs)))
+    """obs (..., obs_dim) -> (..., c K) bool: the (cube, skill) choices that may start here:
+    transfer only on the held cube's view, and, since transit and grasp need an empty
+    gripper, nothing on another cube's view while one is held (that view does not show the
+    cube in hand)."""
+    held = env.grasped(object_views(env, obs))  # (..., c)
+    allowed = allowed_skills(names, held) & ~(held.any(-1, keepdims=True) & ~held)[..., None]
     return allowed.reshape(*obs.shape[:-1], -1)
 
 
@@ -116,7 +119,8 @@ def make_behaviour(
         obs, task_goal = state.obs, state.desired_goal
         views = object_views(env, obs)  # (B, c, 25)
         seen = lambda choice: jnp.take_along_axis(views, (choice // K)[:, None, None], 1)[:, 0]  # noqa: E731
-        done = _stopped(lib, ms.skill % K, seen(ms.skill), ms.goal, cfg.drop_distance)
+        running = seen(ms.skill)  # the running choice's cube view
+        done = _stopped(lib, ms.skill % K, running, ms.goal, cfg.drop_distance)
         decide = execution.decide(ms, done | (ms.steps >= cfg.skill_steps))
         if cfg.critic == "per_skill":
             new_skill, new_goal, meta = mpdqn.choose(agent, obs, task_goal,
@@ -137,7 +141,7 @@ def make_behaviour(
             "meta_action": meta,
             "skill": new.skill,
             "ended": ended,
-            "ended_at_goal": ended & lib.reached(ms.skill % K, seen(ms.skill), ms.goal),
+            "ended_at_goal": ended & lib.reached(ms.skill % K, running, ms.goal),
         }
         action = lib.policy_action(new.skill % K, seen(new.skill), new.goal)
         return new, action, record

@@ -194,10 +194,17 @@ class SkillLibrary:
         at = jnp.stack([env.is_success(env.achieved_from_obs(obs), goal) for env in self.envs])
         return select(at, skill)
 
-    def allowed(self, obs: jax.Array) -> jax.Array:
+    def allowed(self, obs: jax.Array, grasp_reach: float = 0.0) -> jax.Array:
         """(..., K) bool: the skills that may start here. Transfer needs the cube in hand;
-        transit and grasp need an empty gripper (the skills' start conditions)."""
-        return allowed_skills(self.names, self.envs[0].grasped(obs))
+        transit and grasp need an empty gripper (the skills' start conditions); with
+        `grasp_reach` > 0 (m) grasp also needs the gripper that near the cube
+        (`SearchConfig.grasp_reach`)."""
+        allowed = allowed_skills(self.names, self.envs[0].grasped(obs))
+        if grasp_reach <= 0 or "grasp" not in self.names:
+            return allowed
+        near = jnp.linalg.norm(obs[..., self.layout["rel"]], axis=-1) <= grasp_reach
+        k = self.names.index("grasp")
+        return allowed.at[..., k].set(allowed[..., k] & near)
 
 
 def allowed_skills(names: tuple[str, ...], held: jax.Array) -> jax.Array:

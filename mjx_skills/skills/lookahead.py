@@ -53,7 +53,7 @@ def sample_edges(
     (N, b, 3), allowed (N, b) bool (False: no skill may act here)."""
     names = lib.names
     scores, noise, height, lift, way, where = draws
-    allowed = lib.allowed(obs)  # (N, K)
+    allowed = lib.allowed(obs, cfg.grasp_reach)  # (N, K)
     skill = jnp.argmax(jnp.where(allowed[:, None], scores, -1.0), axis=-1).astype(jnp.int32)
     ok = jnp.take_along_axis(allowed, skill, axis=1)
 
