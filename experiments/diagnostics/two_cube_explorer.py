@@ -31,8 +31,12 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("task", help="a task: the two-cube ones, or a one-cube one to compare")
     p.add_argument("--envs", type=int, default=16)
-    p.add_argument("--grasp-reach", type=float, default=0.0,
-                   help="SearchConfig.grasp_reach (m; 0: grasp may start anywhere)")
+    p.add_argument(
+        "--grasp-reach",
+        type=float,
+        default=0.0,
+        help="SearchConfig.grasp_reach (m; 0: grasp may start anywhere)",
+    )
     args = p.parse_args()
     env, (lib, _) = make(args.task), load(DEFAULT_DIR)
     config = DDPGConfig()
@@ -53,13 +57,14 @@ def main() -> None:
     )
     rec = jax.tree.map(np.asarray, rec)
     grasp, T = lib.names.index("grasp"), rec["skill"].shape[1]
+    cube_of = rec.get("object", np.zeros_like(rec["skill"]))  # one-cube tasks record none
     kinds: dict[str, list] = {"first": [], "later": []}
     for e in range(args.envs):
         starts = [t for t in range(T) if rec["skill_calls"][e, t] and rec["skill"][e, t] == grasp]
         for i, t in enumerate(starts):
-            view, cube = rec["view"][e, t], rec.get("object", np.zeros_like(rec["skill"]))[e, t]
+            view, cube = rec["view"][e, t], cube_of[e, t]
             after = min(t + 10, T - 1)
-            held = bool(rec["held"][e, after]) and rec.get("object", np.zeros_like(rec["skill"]))[e, after] == cube
+            held = bool(rec["held"][e, after]) and cube_of[e, after] == cube
             reach = float(np.linalg.norm(view[0:3] - view[3:6]))
             kinds["first" if i == 0 else "later"].append((held, reach, rec["p"][e, t]))
     out = {"task": args.task, "episodes": args.envs, "grasp_reach": args.grasp_reach,

@@ -106,7 +106,9 @@ def _critic_input(state, action, config):
     """Stored (one-hot skill, raw goal) -> the critic's action input."""
     K = action.shape[-1] - SKILL_GOAL
     k = jnp.argmax(action[..., :K], axis=-1)
-    return jnp.concatenate([action[..., :K], _norm_goal(state, action[..., K:], config, (K, k))], -1)
+    return jnp.concatenate(
+        [action[..., :K], _norm_goal(state, action[..., K:], config, (K, k))], -1
+    )
 
 
 def choose(state, obs, goal, allowed, goals: SkillGoals, config: DDPGConfig, key=None):
