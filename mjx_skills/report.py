@@ -170,7 +170,7 @@ VARIANTS = {"thesis_preset": ("thesis preset", None), "pas_single_goal": ("singl
             "take_out_held": ("held starts", None), "oracle": ("oracle explorer", None),
             "bc": ("", "ddpg_her_sl"), "bc_weight": ("weight 10", "ddpg_her_sl"),
             "fast": ("", "ddpg_her_sl"),
-            **{f"fast_no_{x}": (f"no {x}", "fast") for x in faster.ABLATIONS}}  # fmt: skip
+            **{e: (f"no {e.rsplit('_', 1)[1]}", base) for e, _, base, _ in faster.ABLATION_CELLS}}  # fmt: skip
 """Experiments compared cell by cell with another's: (their cells' tag, what they are
 compared with: Fig. 6.3's (Fig. 6.5's) cell of that method (None: the same method), or an
 experiment's name: its cell of the same task and method)."""
@@ -326,7 +326,7 @@ def render(r: Results, draw: bool = True) -> str:
             if experiment == "fast":
                 lines += ["", "The targets of the issue \"learn faster than the oracle explorer\":",
                           "", *table(faster.HEADER, faster.faster(r)), "",
-                          "Each ingredient removed in turn, on pick_move (`experiments/fast_no_*.toml`):",
+                          "Each ingredient removed in turn, on pick_move (`experiments/fast_no_*.toml`), and the pick also on container_wall (`experiments/fast_wall_no_pick.toml`):",
                           "", *table(faster.ABLATION_HEADER, faster.ablation_rows(r))]  # fmt: skip
         elif experiment == two_cubes.EXPERIMENT:
             lines += [two_cubes.INTRO, "", *table(two_cubes.HEADER, two_cubes.rows(r)), "",

@@ -167,8 +167,8 @@ def test_library_methods_train_on_two_cubes_with_the_one_cube_library(tmp_path, 
 @pytest.mark.parametrize("held", [0, 1])
 def test_the_fast_methods_proposals_transfer_only_the_cube_held(held):
     """DDPG+HER+SL+Fast's critic picks among proposals made on each cube's view towards that
-    cube's goal: transfer is proposed only on the held cube's view, and each cube's
-    proposals aim at its own part of the 6-D goal."""
+    cube's goal: with a cube held, only its transfer may be taken (none on the other cube's
+    view), aiming at its own part of the 6-D goal; with none held, any cube but no transfer."""
     from mjx_skills.config import SearchConfig
     from mjx_skills.methods import ddpg_her_sl_fast as fast
     from tests.test_fast import EncodingLibrary
@@ -182,10 +182,16 @@ def test_the_fast_methods_proposals_transfer_only_the_cube_held(held):
     )
     actions, ok = fast.propose_any(two, EncodingLibrary(), SearchConfig(), obs, goal,
                                    jax.random.key(4), per_cube)  # fmt: skip
-    assert actions.shape == (n, 2 * per_cube, 4) and bool(jnp.all(ok))
+    assert actions.shape == (n, 2 * per_cube, 4)
+    ok = np.asarray(ok).reshape(n, 2, per_cube)  # nothing may start on the other cube's view
+    assert ok[:, held].all() and not ok[:, 1 - held].any()
     skill = np.rint(np.asarray(actions[..., 0]) * 10).astype(int).reshape(n, 2, per_cube)
-    transfer = NAMES.index("transfer")
-    assert np.all(skill[:, held] == transfer) and not np.any(skill[:, 1 - held] == transfer)
+    assert np.all(skill[:, held] == NAMES.index("transfer"))
+    free = _free_scene(two, n)  # both cubes on the table: transit and grasp on either
+    free_actions, free_ok = fast.propose_any(two, EncodingLibrary(), SearchConfig(), free, goal,
+                                             jax.random.key(4), per_cube)  # fmt: skip
+    free_skill = np.rint(np.asarray(free_actions[..., 0]) * 10).astype(int)
+    assert bool(jnp.all(free_ok)) and not np.any(free_skill == NAMES.index("transfer"))
     aim = np.asarray(actions[..., 1:]).reshape(n, 2, per_cube, 3)[:, held]
     near = np.linalg.norm(aim - np.asarray(goal).reshape(n, 2, 3)[:, held, None], axis=-1)
     assert np.mean(near < 0.03 * np.sqrt(3) + 1e-6) > 0.5

@@ -37,6 +37,13 @@ def object_views(env, obs: jax.Array) -> jax.Array:
     return jnp.stack([env.project(obs, k) for k in range(env.n_objects)], axis=-2)
 
 
+def another_held(held: jax.Array) -> jax.Array:
+    """held (..., c) bool, each cube's view showing it in the fingers -> (..., c) bool:
+    another cube is held. That view's gripper looks empty but is not, so no skill may
+    start on it (transit and grasp need an empty gripper, transfer the cube in hand)."""
+    return held.any(-1, keepdims=True) & ~held
+
+
 class TwoObjects(BaxterEnv):
     """Mixin over a one-cube task: both cubes placed at reset, observed and scored."""
 

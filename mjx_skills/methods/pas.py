@@ -40,7 +40,7 @@ from mjx_skills.core import replay, rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.skills import PARAM_DIM
-from mjx_skills.envs.two_objects import object_views
+from mjx_skills.envs.two_objects import another_held, object_views
 from mjx_skills.skills import execution
 from mjx_skills.skills.library import SkillLibrary, allowed_skills, skill_envs
 
@@ -94,7 +94,7 @@ def option_allowed(env: GoalEnv, names: tuple[str, ...], obs: jax.Array) -> jax.
     gripper, nothing on another cube's view while one is held (that view does not show the
     cube in hand)."""
     held = env.grasped(object_views(env, obs))  # (..., c)
-    allowed = allowed_skills(names, held) & ~(held.any(-1, keepdims=True) & ~held)[..., None]
+    allowed = allowed_skills(names, held) & ~another_held(held)[..., None]
     return allowed.reshape(*obs.shape[:-1], -1)
 
 
