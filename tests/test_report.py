@@ -16,6 +16,20 @@ def test_first_reaching_uses_the_rolling_mean_not_a_single_epoch():
     assert stats.first_reaching(np.full(20, 0.5), 0.9) is None
 
 
+def test_the_lowest_seed_is_judged_over_its_own_last_epochs_of_the_budget():
+    """container_wall's floor: each seed's mean over its last 10 epochs (of the first `upto`),
+    and the lowest of those; one stuck seed decides it, whatever the others do."""
+    from mjx_skills.analysis.faster import seed_minimum
+
+    learns = [0.0] * 10 + [1.0] * 20  # seed 0: learns at epoch 11
+    late = [0.0] * 25 + [1.0] * 5  # seed 1: only its last 5 epochs succeed
+    rows = [{"seed": s, "epoch": e + 1, "eval_success": v}
+            for s, curve in enumerate((learns, late)) for e, v in enumerate(curve)]  # fmt: skip
+    assert seed_minimum(rows) == pytest.approx(0.5)  # seed 1 over epochs 21-30
+    assert seed_minimum(rows, upto=20) == pytest.approx(0.0)  # seed 1 over epochs 11-20
+    assert seed_minimum(rows, last=5) == pytest.approx(1.0)
+
+
 def test_intervals_cover_the_mean_and_shrink_to_it_without_spread():
     rng = np.random.default_rng(0)
     scores = rng.uniform(0, 1, (5, 30))
