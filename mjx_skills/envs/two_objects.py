@@ -37,11 +37,22 @@ def object_views(env, obs: jax.Array) -> jax.Array:
     return jnp.stack([env.project(obs, k) for k in range(env.n_objects)], axis=-2)
 
 
-def another_held(held: jax.Array) -> jax.Array:
-    """held (..., c) bool, each cube's view showing it in the fingers -> (..., c) bool:
-    another cube is held. That view's gripper looks empty but is not, so no skill may
-    start on it (transit and grasp need an empty gripper, transfer the cube in hand)."""
-    return held.any(-1, keepdims=True) & ~held
+def finish_first(held: jax.Array, at_goal: jax.Array) -> jax.Array:
+    """held, at_goal (..., c) bool per cube -> (..., c) bool: another cube is in the fingers
+    and not yet at its goal, so nothing starts on this cube's view (whose gripper looks
+    empty but is not): the library's explorers finish what they hold first. Once the held
+    cube is at its goal, a transit or grasp on another cube is what releases it."""
+    busy = held & ~at_goal
+    return busy.any(-1, keepdims=True) & ~busy
+
+
+def busy_elsewhere(env, obs: jax.Array, goal: jax.Array) -> jax.Array:
+    """`finish_first` of a scene: obs (..., obs_dim), task goal (..., goal_dim) -> (..., c)
+    bool (all False with one cube)."""
+    held = env.grasped(object_views(env, obs))
+    if env.n_objects == 1:
+        return jnp.zeros_like(held)
+    return finish_first(held, env.cube_success(env.achieved_from_obs(obs), goal))
 
 
 class TwoObjects(BaxterEnv):

@@ -25,7 +25,7 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.core import rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.envs.two_objects import object_views
+from mjx_skills.envs.two_objects import finish_first, object_views
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.skills import execution, lookahead, stalls
 from mjx_skills.skills.library import SkillLibrary
@@ -120,8 +120,7 @@ def make_behaviour(
         where = explore[:, None]
         if n > 1:  # a cube already at its goal is left alone; a cube in hand is finished first
             at_goal = env.cube_success(state.achieved_goal, task_goal)  # (B, n)
-            busy = env.grasped(views) & ~at_goal
-            where = where & ~at_goal & (busy | ~jnp.any(busy, axis=1, keepdims=True))
+            where = where & ~at_goal & ~finish_first(env.grasped(views), at_goal)
         obstacles = ps.obstacles if cfg.stall_memory else None
         found = lookahead.search_where(lib, cfg, scored, where.reshape(-1),
                                     views.reshape(B * n, -1), task_goal.reshape(B * n, 3),

@@ -38,7 +38,7 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig, check_numbe
 from mjx_skills.core import rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.envs.two_objects import another_held, object_views
+from mjx_skills.envs.two_objects import busy_elsewhere, object_views
 from mjx_skills.methods.ddpg_her_sl import make_behaviour, make_ddpg_her_sl
 from mjx_skills.skills import lookahead
 from mjx_skills.skills.library import SkillLibrary
@@ -94,7 +94,7 @@ def propose_any(
     views = object_views(env, obs)  # (B, c, 25)
     B, c = views.shape[:2]
     actions, ok = propose(lib, search, views.reshape(B * c, -1), goal.reshape(B * c, -1), key, n)
-    ok = ok.reshape(B, c, n) & ~another_held(env.grasped(views))[..., None]
+    ok = ok.reshape(B, c, n) & ~busy_elsewhere(env, obs, goal)[..., None]
     return actions.reshape(B, c * n, -1), ok.reshape(B, c * n)
 
 

@@ -40,7 +40,7 @@ from mjx_skills.core import replay, rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.skills import PARAM_DIM
-from mjx_skills.envs.two_objects import another_held, object_views
+from mjx_skills.envs.two_objects import object_views
 from mjx_skills.skills import execution
 from mjx_skills.skills.library import SkillLibrary, allowed_skills, skill_envs
 
@@ -89,12 +89,12 @@ def option_goals(env: GoalEnv, envs) -> mpdqn.SkillGoals:
 
 
 def option_allowed(env: GoalEnv, names: tuple[str, ...], obs: jax.Array) -> jax.Array:
-    """obs (..., obs_dim) -> (..., c K) bool: the (cube, skill) choices that may start here:
-    transfer only on the held cube's view, and, since transit and grasp need an empty
-    gripper, nothing on another cube's view while one is held (that view does not show the
-    cube in hand)."""
-    held = env.grasped(object_views(env, obs))  # (..., c)
-    allowed = allowed_skills(names, held) & ~another_held(held)[..., None]
+    """obs (..., obs_dim) -> (..., c K) bool: the (cube, skill) choices that may start here
+    (transfer only on the held cube's view). A transit or grasp on another cube's view may
+    start with a cube in hand: that is how a cube at its goal is let go (no skill releases),
+    and the meta-controller learns when (a rule on the task goal would go stale under HER's
+    relabelling, which `allowed` / `next_allowed` in the replay do not follow)."""
+    allowed = allowed_skills(names, env.grasped(object_views(env, obs)))
     return allowed.reshape(*obs.shape[:-1], -1)
 
 
