@@ -4,6 +4,7 @@ python -m mjx_skills.train ddpg_her --task transit --epochs 20 --seeds 2
 python -m mjx_skills.train --task transit              # the method defaults to ddpg_her
 python -m mjx_skills.train --method ddpg_her ...       # earlier form, still accepted
 python -m mjx_skills.train --resume RUN_DIR            # the run's config.json decides
+python -m mjx_skills.train --resume RUN_DIR --epochs 60  # ... and train on to 60 epochs
 python -m mjx_skills.train ddpg_her_sl --preset thesis # the thesis's formulation (methods.PRESETS)
 """
 
@@ -64,7 +65,13 @@ def parse(argv: list[str]) -> RunArgs:
     argv = [_expand_alias(arg) for arg in argv]
     resume, rest = _flag_value(argv, "--resume")
     if resume is not None:
-        return RunArgs(resume=resume)
+        epochs, rest = _flag_value(rest, "--epochs")
+        if rest:
+            raise SystemExit(f"error: --resume takes only --epochs N (its config.json decides "
+                             f"the rest), got {' '.join(rest)}")  # fmt: skip
+        if epochs is not None and not epochs.isdigit():
+            raise SystemExit(f"error: --epochs needs a whole number, got {epochs!r}")
+        return RunArgs(resume=resume, extend_to=None if epochs is None else int(epochs))
     preset, argv = _flag_value(argv, "--preset")
     name, argv = _flag_value(argv, "--method")
     if name is None and argv and not argv[0].startswith("-"):

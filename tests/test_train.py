@@ -93,6 +93,17 @@ def test_resume_equals_uninterrupted_run(tmp_path):
     assert _rows(straight) == _rows(pieces)
 
 
+def test_an_extended_run_equals_one_started_with_the_longer_budget(tmp_path):
+    straight = train_run(tiny_args(tmp_path / "a", epochs=3))
+    short = train_run(tiny_args(tmp_path / "b", epochs=2))
+    with pytest.raises(ValueError, match="epochs: cannot shorten"):
+        train_run(RunArgs(resume=str(short), extend_to=1))
+    assert [r["epoch"] for r in read_metrics(short)] == [1, 2]
+    assert train_run(RunArgs(resume=str(short), extend_to=3)) == short
+    assert json.loads((short / "config.json").read_text())["train"]["epochs"] == 3
+    assert _rows(straight) == _rows(short)
+
+
 def test_a_new_run_never_reuses_a_directory(tmp_path):
     first = train_run(tiny_args(tmp_path, epochs=1))
     second = train_run(tiny_args(tmp_path, epochs=1))
@@ -191,6 +202,16 @@ def test_cli_forms_parse_to_the_same_run():
     assert sub == old == default
     assert sub.method == "ddpg_her" and sub.options["ddpg"].actor_lr == 3e-4
     assert sub.env.physics == "mjx" and sub.train.task == "transit"
+
+
+def test_resume_takes_only_a_longer_budget_on_the_command_line():
+    from mjx_skills.train import parse
+
+    assert parse(["--resume", "RUN"]) == RunArgs(resume="RUN")
+    assert parse(["--resume", "RUN", "--epochs", "60"]) == RunArgs(resume="RUN", extend_to=60)
+    for extra in (["--task", "transit"], ["--epochs", "many"]):
+        with pytest.raises(SystemExit, match="--epochs"):
+            parse(["--resume", "RUN", *extra])
 
 
 def test_held_starts_never_reach_the_evaluation_episodes(monkeypatch):

@@ -39,6 +39,10 @@ class RunArgs:
     filled in for missing groups."""
     resume: str | None = None
     """Continue the run in this directory from its last checkpoint (its config.json wins)."""
+    extend_to: int | None = None
+    """With `resume`: train on to this many epochs (at least the run's own), and record the
+    new budget in its config.json. Nothing in an epoch reads the total, so the run equals
+    one started with that many (tests/test_train.py)."""
 
     def full_options(self) -> dict[str, Any]:
         spec = methods.get(self.method)
@@ -92,6 +96,14 @@ def load_config(run_dir: Path) -> RunArgs:
                    env=from_dict(EnvConfig, raw["env"]), options=options, resume=str(run_dir))  # fmt: skip
 
 
+def _extended(args: RunArgs, epochs: int) -> RunArgs:
+    """A resumed run's args with its budget raised to `epochs` (ValueError below its own)."""
+    if epochs < args.train.epochs:
+        raise ValueError(f"epochs: cannot shorten {args.resume} from {args.train.epochs} to "
+                         f"{epochs} epochs; extending needs at least its own")  # fmt: skip
+    return dataclasses.replace(args, train=dataclasses.replace(args.train, epochs=epochs))
+
+
 def check_finite(metrics: dict[str, np.ndarray]) -> None:
     bad = [k for k, v in metrics.items() if not np.all(np.isfinite(v))]
     if bad:
@@ -109,7 +121,9 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     run trains nothing and returns its last checkpoint's carry."""
     run_dir = Path(args.resume) if args.resume else None
     if run_dir is not None:
-        args = load_config(run_dir)
+        extend_to, args = args.extend_to, load_config(run_dir)
+        if extend_to is not None:
+            args = _extended(args, extend_to)  # saved once its checkpoint has loaded
     check_name(args.train.task)
     options = args.full_options()  # unknown methods and option groups fail before any write
     methods.check_read(args.method, args.train, options)  # so do options it would ignore
@@ -128,6 +142,8 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     if args.resume and checkpoints.latest_epoch() is not None:
         start, carry = checkpoints.restore(carry)
         carry = committed(carry)
+    if args.resume and args.train.epochs != load_config(run_dir).train.epochs:
+        save_config(run_dir, args)  # the extended budget
     writer = MetricsWriter(run_dir, resume_from_epoch=start)
     steps_per_epoch = cfg.envs * cfg.cycles * env.episode_length
     bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{args.method}")
