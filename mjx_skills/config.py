@@ -96,13 +96,12 @@ class DDPGConfig:
         check_numbers(self)
         _check(len(self.hidden) > 0 and all(h > 0 for h in self.hidden), "hidden",
                "need >= 1 positive width")  # fmt: skip
-        for name in ("actor_lr", "critic_lr", "batch_size", "n_step"):
+        for name in ("actor_lr", "critic_lr", "batch_size", "n_step", "norm_clip"):
             _check(getattr(self, name) > 0, name, "must be > 0")
         _check(0.0 < self.gamma < 1.0, "gamma", "must lie in (0, 1)")
         _check(0.0 < self.tau <= 1.0, "tau", "must lie in (0, 1]")
         _check(0.0 <= self.random_eps <= 1.0, "random_eps", "must lie in [0, 1]")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
-        _check(self.norm_clip > 0, "norm_clip", "must be > 0")
         _check(self.norm_eps > 0, "norm_eps", "must be > 0 (the floor of a std)")
         strategies = ("future", "final", "episode", "none")
         _check(self.her_strategy in strategies, "her_strategy", f"one of {', '.join(strategies)}")
@@ -342,14 +341,10 @@ class SearchConfig:
     eps_decay_epochs: int = 30
     """... over this many epochs."""
     grasp_reach: float = 0.0
-    """Grasp's initiation set: where > 0, the search may start grasp only with the gripper
-    within this distance (m) of the cube, where the grasp skill was trained (its starts lie
-    within 5 cm, `envs.skills.Grasp`); farther away it plans transit first. 0: grasp may
-    start anywhere with an empty gripper (the thesis)."""
+    """Grasp's initiation set (m): > 0, grasp starts only this near the cube; 0: anywhere."""
 
     def __post_init__(self) -> None:
         check_numbers(self)
-        _check(self.grasp_reach >= 0.0, "grasp_reach", "must be >= 0 (0: off)")
         for name in ("branching", "height", "skill_steps", "eps_decay_epochs"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")
         _check(0.0 <= self.prune_below < 1.0, "prune_below", "must lie in [0, 1)")

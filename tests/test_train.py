@@ -182,13 +182,15 @@ def test_counters_are_the_x_axes(tmp_path):
         (["sac", "--task", "transit"], "valid: ddpg_her"),
         (["--epochs", "0"], "epochs"),
         (["--resume", "/nonexistent/run"], "not a run directory"),
+        (["--resume", "/nonexistent/run", "--task", "transit"], "--resume takes only --epochs"),
     ],
 )
 def test_cli_bad_input_is_a_clear_error(argv, message, capsys):
     from mjx_skills.train import main
 
+    out = [] if "--resume" in argv else ["--out", "/nonexistent/never-written"]
     with pytest.raises(SystemExit) as exit_info:
-        main([*argv, "--out", "/nonexistent/never-written"])
+        main([*argv, *out])
     assert message in str(exit_info.value) + capsys.readouterr().err
 
 
