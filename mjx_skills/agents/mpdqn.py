@@ -84,14 +84,13 @@ def option_norm(state, n_options: int, config) -> tuple[jax.Array, jax.Array]:
     return per(mean), per(std)
 
 
-def _norm_goal(state, goal, config, choice=None):
-    """Every choice's goal (..., K, 3) normalised with its cube's statistics; with `choice`
-    = (K, index (...,) int), one goal (..., 3) per row, normalised as that choice's."""
-    if choice is None:
-        mean, std = option_norm(state, goal.shape[-2], config)
-    else:
-        mean, std = (x[choice[1]] for x in option_norm(state, choice[0], config))
-    return jnp.clip((goal - mean) / std, -config.norm_clip, config.norm_clip)
+def _norm_goal(state, goal, config):
+    """Every choice's goal (..., K, 3) normalised with its cube's statistics."""
+    return _clip_norm(goal, *option_norm(state, goal.shape[-2], config), config)
+
+
+def _clip_norm(x, mean, std, config):
+    return jnp.clip((x - mean) / std, -config.norm_clip, config.norm_clip)
 
 
 def _values(critic_params, o, g, goals_n, config):
@@ -105,9 +104,10 @@ def _values(critic_params, o, g, goals_n, config):
 def _critic_input(state, action, config):
     """Stored (one-hot skill, raw goal) -> the critic's action input."""
     K = action.shape[-1] - SKILL_GOAL
+    mean, std = option_norm(state, K, config)
     k = jnp.argmax(action[..., :K], axis=-1)
     return jnp.concatenate(
-        [action[..., :K], _norm_goal(state, action[..., K:], config, (K, k))], -1
+        [action[..., :K], _clip_norm(action[..., K:], mean[k], std[k], config)], -1
     )
 
 

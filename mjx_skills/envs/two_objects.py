@@ -46,15 +46,6 @@ def finish_first(held: jax.Array, at_goal: jax.Array) -> jax.Array:
     return busy.any(-1, keepdims=True) & ~busy
 
 
-def busy_elsewhere(env, obs: jax.Array, goal: jax.Array) -> jax.Array:
-    """`finish_first` of a scene: obs (..., obs_dim), task goal (..., goal_dim) -> (..., c)
-    bool (all False with one cube)."""
-    held = env.grasped(object_views(env, obs))
-    if env.n_objects == 1:
-        return jnp.zeros_like(held)
-    return finish_first(held, env.cube_success(env.achieved_from_obs(obs), goal))
-
-
 class TwoObjects(BaxterEnv):
     """Mixin over a one-cube task: both cubes placed at reset, observed and scored."""
 

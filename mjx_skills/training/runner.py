@@ -120,10 +120,11 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     """`train_run`, also returning the final carry (leading seed axis). Resuming a finished
     run trains nothing and returns its last checkpoint's carry."""
     run_dir = Path(args.resume) if args.resume else None
+    extended = False  # a resumed run given a longer budget: saved once its checkpoint loaded
     if run_dir is not None:
         extend_to, args = args.extend_to, load_config(run_dir)
         if extend_to is not None:
-            args = _extended(args, extend_to)  # saved once its checkpoint has loaded
+            extended, args = extend_to != args.train.epochs, _extended(args, extend_to)
     check_name(args.train.task)
     options = args.full_options()  # unknown methods and option groups fail before any write
     methods.check_read(args.method, args.train, options)  # so do options it would ignore
@@ -142,8 +143,8 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     if args.resume and checkpoints.latest_epoch() is not None:
         start, carry = checkpoints.restore(carry)
         carry = committed(carry)
-    if args.resume and args.train.epochs != load_config(run_dir).train.epochs:
-        save_config(run_dir, args)  # the extended budget
+    if extended:
+        save_config(run_dir, args)
     writer = MetricsWriter(run_dir, resume_from_epoch=start)
     steps_per_epoch = cfg.envs * cfg.cycles * env.episode_length
     bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{args.method}")
