@@ -22,7 +22,9 @@ Resumable: a cell runs in SWEEP_DIR/CELL/ (default runs/sweeps/NAME/) and, once 
 metrics are kept with its definition in experiments/results/cells/CELL/ (`mjx_skills.sweeps.cells`,
 committed): a stored cell of the same definition is taken instead of trained, whichever
 experiment asks for it, and an interrupted one resumes from its checkpoint. A stored cell
-or a run made by another definition of the cell is refused with the fields that differ. When every cell is done the results are aggregated into
+or a run made by another definition of the cell is refused with the fields that differ.
+A cell whose epochs grew trains on from the run of its shorter budget in the same sweep
+directory (copied; the shorter run is left as it was) instead of from scratch. When every cell is done the results are aggregated into
 experiments/results/NAME.csv (mean and std of eval success over seeds per epoch) and NAME.jsonl
 (every seed's metrics); existing results are not overwritten without --overwrite.
 """
@@ -87,18 +89,60 @@ def run_cell(cell: Cell, cell_dir: str, progress: bool = True, store: str = str(
     hit = cells.stored(cell, Path(store))
     if hit is not None:
         return str(hit)
+    run_dir = run_dir or copy_shorter_run(cell, Path(cell_dir))
+    extend = None  # a run of this cell's definition at a shorter budget trains on
     if run_dir is not None:
-        diff = cells.run_differences(run_dir, cell)
+        budget = shorter_budget(run_dir, cell)
+        extend = None if budget is None else cell.epochs
+        diff = [] if budget is not None else cells.run_differences(run_dir, cell)
         if diff:
             raise ValueError(f"{run_dir} was run with another definition of {cell.name} "
                              f"({'; '.join(diff[:6])}); delete {cell_dir} or use another "
                              "--sweep-dir")  # fmt: skip
     if not finished(run_dir, cell):
-        args = RunArgs(resume=str(run_dir)) if run_dir else cell.run_args(cell_dir, progress)
+        args = (RunArgs(resume=str(run_dir), extend_to=extend) if run_dir
+                else cell.run_args(cell_dir, progress))  # fmt: skip
         run_dir = train_run(args)
         if not finished(run_dir, cell):  # interrupted: it saved, starting again resumes
             return str(run_dir)
     return str(cells.save(cell, run_dir, Path(store)))
+
+
+def shorter_budget(run_dir: Path, cell: Cell) -> int | None:
+    """The run's budget if it is `cell`'s definition with fewer epochs, else None."""
+    import dataclasses
+
+    from mjx_skills.sweeps import cells
+
+    epochs = json.loads((run_dir / "config.json").read_text())["train"]["epochs"]
+    shorter = dataclasses.replace(cell, epochs=epochs)
+    return epochs if epochs < cell.epochs and not cells.run_differences(run_dir, shorter) else None
+
+
+def copy_shorter_run(cell: Cell, cell_dir: Path) -> Path | None:
+    """The longest run of `cell` at a shorter budget in this sweep's directory (a sibling
+    cell directory named as `cell` but for its epochs), copied into `cell_dir` so that the
+    cell trains on from its last checkpoint instead of from scratch (`train --resume RUN
+    --epochs N`, which equals a run started with the longer budget); None if there is none.
+    The shorter run is left as it was."""
+    import shutil
+
+    prefix = cell.name.removesuffix(f"-e{cell.epochs}")
+    found = []
+    for other in cell_dir.parent.glob(f"{prefix}-e*"):
+        run = cell_run_dir(other) if other.name[len(prefix) + 2 :].isdigit() else None
+        budget = None if run is None else shorter_budget(run, cell)
+        if budget is not None:
+            found.append((budget, other, run))
+    if not found:
+        return None
+    _, other, run = max(found, key=lambda x: x[0])
+    partial = cell_dir / ".partial"  # copied whole or not at all: a resume never sees half
+    shutil.rmtree(partial, ignore_errors=True)
+    shutil.copytree(run, partial)
+    copy = cell_dir / run.relative_to(other)
+    copy.parent.mkdir(parents=True, exist_ok=True)
+    return partial.rename(copy)
 
 
 def result_dir(cell: Cell, cell_dir: Path, store: Path) -> Path | None:

@@ -4,6 +4,7 @@ are aggregated over seeds and never overwritten unasked; cells also run as Ray t
 import csv
 import dataclasses
 import json
+import shutil
 
 import pytest
 
@@ -254,3 +255,28 @@ def test_a_field_added_since_a_cell_was_stored_matches_only_at_its_default():
     assert diff == ["env.single_goal: None != True"]
     old["config"]["env"]["single_goal"] = False  # a stored value is always compared
     assert cells._config_differences(old["config"], cells.definition(variant)["config"])
+
+
+def test_a_longer_budget_trains_on_from_the_shorter_cells_run(finished_sweep, tmp_path):
+    """The cell given 3 epochs where a 2-epoch run of its definition is in the sweep's
+    directory trains on from that run's checkpoint (the shorter run is left as it was) and
+    equals the cell trained for 3 epochs from the start; another definition is not taken."""
+    root, exp, first, _ = finished_sweep
+    shorter = exp.cells()[0]
+    sweep_dir = tmp_path / "cells"
+    shutil.copytree(root / "cells" / shorter.name, sweep_dir / shorter.name)
+    before = (first / "metrics.jsonl").read_text()
+    longer = dataclasses.replace(exp, epochs=3)
+    cell = longer.cells()[0]
+    sweep.run_sweep(longer, sweep_dir, tmp_path / "results", progress=False)
+    run = sweep.cell_run_dir(sweep_dir / cell.name)
+    rel = first.relative_to(root / "cells" / shorter.name)  # the same run, trained on
+    assert run.relative_to(sweep_dir / cell.name) == rel
+    assert (sweep_dir / shorter.name / rel / "metrics.jsonl").read_text() == before
+    sweep.run_sweep(longer, tmp_path / "straight", tmp_path / "elsewhere", progress=False)
+    fresh = sweep.cell_run_dir(tmp_path / "straight" / cell.name)
+    drop_wall = lambda rows: [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]
+    assert drop_wall(read_metrics(run)) == drop_wall(read_metrics(fresh))
+    assert max(r["epoch"] for r in read_metrics(run)) == 3
+    other = dataclasses.replace(exp, epochs=3, train={**TINY, "cycles": 1})
+    assert sweep.copy_shorter_run(other.cells()[0], sweep_dir / other.cells()[0].name) is None

@@ -52,6 +52,17 @@ def test_the_joint_pas_critic_refuses_two_cube_tasks_before_writing_anything(tmp
     assert not any(tmp_path.iterdir())
 
 
+def test_behaviour_cloning_refuses_an_explorer_that_drives_no_skill(tmp_path):
+    """DDPG+HER+SL+BC clones the steps the search's skills drove; the scripted explorer
+    drives none, and the method trained as plain DDPG+HER+SL without a word."""
+    from mjx_skills import train
+
+    with pytest.raises(SystemExit, match="--search.explorer scripted drives none"):
+        train.main(["ddpg_her_sl_bc", "--task", "pick_move", "--search.explorer", "scripted",
+                    "--out", str(tmp_path)])  # fmt: skip
+    assert not any(tmp_path.iterdir())
+
+
 @pytest.mark.skipif(not (DEFAULT_DIR / "manifest.json").exists(), reason="no built skill library")
 @pytest.mark.parametrize("k", [0, 1])
 def test_a_library_skill_acts_on_cube_k_as_on_the_cube_of_a_one_cube_scene(k):

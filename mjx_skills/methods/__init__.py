@@ -85,15 +85,22 @@ def check_task(method: str, task: str, options: dict[str, Any] | None = None) ->
     """ValueError if `method` cannot run `task`. Every method runs every task (the library's
     skills act on any cube through the scene's projection onto (gripper, that cube)) except
     PAS / MPAS with the thesis's joint critic, which runs the one-cube tasks only
-    (`options`: the method's option groups)."""
+    (`options`: the method's option groups). Also refused: DDPG+HER+SL+BC with the scripted
+    explorer, which drives no library skill, so that nothing would be cloned."""
     from mjx_skills.envs.registry import ENVS
 
     get(method)
     cubes = ENVS[task].n_objects
-    pas = (options or {}).get("pas")
+    options = options or {}
+    pas = options.get("pas")
     if pas is not None and pas.critic == "joint" and cubes != 1:
         raise ValueError(f"--pas.critic joint (the thesis's critic) runs on one-cube tasks; "
                          f"{task} has {cubes} cubes: use --pas.critic per_skill")  # fmt: skip
+    search = options.get("search")
+    if method == "ddpg_her_sl_bc" and search is not None and search.explorer != "search":
+        raise ValueError(f"ddpg_her_sl_bc clones the skills the look-ahead search drives; "
+                         f"--search.explorer {search.explorer} drives none, so nothing would be "
+                         f"cloned: use ddpg_her_sl for the {search.explorer} explorer")  # fmt: skip
 
 
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
