@@ -179,6 +179,33 @@ def test_the_estimate_adds_up_the_measured_epoch_costs():
     assert cost.makespan([3, 5, 3, 4, 3], 2) == 10  # longest first: 5 + 3, 4 + 3 + 3
 
 
+def test_a_method_the_benchmark_does_not_measure_costs_what_its_stored_cells_took(tmp_path):
+    """DDPG+HER+SL+Fast's estimate comes from its stored cells' wall time per epoch: the
+    same task's cell of the same options first (an ablation of another option is not
+    taken), scaled by seeds; another task's scaled by episode length."""
+    from mjx_skills.sweeps import cells, cost
+
+    def store(exp: Experiment, seconds_per_epoch: float) -> None:
+        cell = exp.cells()[0]
+        where = tmp_path / cell.name
+        where.mkdir()
+        (where / "definition.json").write_text(json.dumps(cells.definition(cell)))
+        rows = [{"epoch": e, "seed": s, "wall_s": seconds_per_epoch * e, "eval_success": 0.0}
+                for e in range(1, exp.epochs + 1) for s in range(exp.seeds)]  # fmt: skip
+        (where / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+    fast = {"tasks": ("pick_move",), "methods": ("ddpg_her_sl_fast",), "libraries": ("SL1",)}
+    store(Experiment(name="a", description="", seeds=5, epochs=4, **fast), 50.0)
+    store(Experiment(name="b", description="", seeds=5, epochs=4, label="no_pick",
+                     options={"ddpg_her_sl_fast": {"fast": {"pick": False}}}, **fast), 500.0)  # fmt: skip
+    exp = Experiment(name="t", description="", seeds=2, epochs=10, **fast)
+    assert cost.estimate(exp, jobs=1, rows=[], store=tmp_path)["wall_s"] == 10 * 50 * 2 / 5
+    other = dataclasses.replace(exp, tasks=("put_in_container",))  # 100 steps, pick_move 50
+    assert cost.estimate(other, jobs=1, rows=[], store=tmp_path)["wall_s"] == 10 * 50 * 2 / 5 * 2
+    with pytest.raises(ValueError, match="no stored cell of it"):
+        cost.estimate(exp, jobs=1, rows=[], store=tmp_path / "empty")
+
+
 def test_cells_run_as_ray_tasks(tmp_path):
     ray = pytest.importorskip("ray")
     exp = _tiny(epochs=1, seeds=1)

@@ -13,6 +13,10 @@ The model, per cell (task, method, seeds, epochs):
   eps, which decays linearly over `eps_decay_epochs` (the search runs only where it is
   used: `search.search_where`);
 - plus the compile once per cell.
+A method the benchmark does not measure (DDPG+HER+SL+Fast: wider networks, four times the
+updates) costs what its stored cells took per epoch (`experiments/results/cells`, run two
+at a time on two cores), scaled linearly to the cell's seeds (and episode length, from
+another task's cell).
 Cells are then given to `jobs` workers longest first; the estimate is the last worker's end.
 Budgets other than the default (envs, cycles, updates, evaluation episodes) are not modelled.
 """
@@ -27,6 +31,10 @@ from pathlib import Path
 from mjx_skills.sweeps.experiments import Cell, Experiment
 
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "epoch_cost.jsonl"
+STORE = Path(__file__).resolve().parents[2] / "experiments" / "results" / "cells"
+BENCHMARKED = ("ddpg_her", "pas", "mpas", "ddpg_her_sl", "ddpg_her_sl_bc")
+"""Methods whose epochs `benchmarks/epoch_cost.py` measures (BC's extra loss term is noise
+beside DDPG+HER+SL's epoch)."""
 REFERENCE_LENGTH = 50
 """Episode length of pick_move, the task the epoch costs are measured on."""
 
@@ -75,7 +83,40 @@ class CostTable:
         return max(r["compile_s"] for r in self._rows(variant))
 
 
-def cell_seconds(cell: Cell, table: CostTable) -> float:
+def stored_epoch_s(cell: Cell, store: Path = STORE) -> float:
+    """Seconds per epoch of `cell` from the stored cells of its method (ValueError if none),
+    preferring one of the same task, then one of the same options, then the slowest; from
+    another task scaled by episode length; then scaled by seeds."""
+    from mjx_skills.envs.registry import ENVS
+    from mjx_skills.sweeps.cells import defaults, differences, run_config
+
+    options = run_config(cell.run_args(out="", progress=False))["options"]
+    default = defaults(cell.method)["options"]
+    found = []
+    for d in sorted(store.glob(f"*-{cell.method}-*")):
+        config = json.loads((d / "definition.json").read_text())["config"]
+        if config["method"] != cell.method:
+            continue
+        metrics = [json.loads(x) for x in (d / "metrics.jsonl").read_text().splitlines()]
+        train = config["train"]
+        last = max(metrics, key=lambda m: m["wall_s"])  # a resumed run's clock restarts
+        wall = last["wall_s"] / last["epoch"]
+        rank = (
+            train["task"] != cell.task,
+            bool(differences(config["options"], options, default=default)),
+            -wall / train["seeds"],
+        )
+        found.append((rank, train["task"]))
+    if not found:
+        raise ValueError(
+            f"no epoch cost measured for {cell.method}: no stored cell of it in {store}"
+        )
+    (other, _, per_seed), task = min(found)
+    length = ENVS[cell.task].default_episode_length / ENVS[task].default_episode_length
+    return -per_seed * cell.seeds * (length if other else 1.0)
+
+
+def cell_seconds(cell: Cell, table: CostTable, store: Path = STORE) -> float:
     """Expected wall seconds of one training cell."""
     import jax.numpy as jnp
 
@@ -84,6 +125,8 @@ def cell_seconds(cell: Cell, table: CostTable) -> float:
     from mjx_skills.envs.registry import ENVS
     from mjx_skills.methods.ddpg_her_sl import epsilon
 
+    if cell.method not in BENCHMARKED:
+        return cell.epochs * stored_epoch_s(cell, store)
     length = ENVS[cell.task].default_episode_length
     groups = methods.get(cell.method).options
     default = groups.get("search", SearchConfig())
@@ -111,8 +154,9 @@ def makespan(seconds: list[float], jobs: int) -> float:
 
 
 def estimate(
-    exp: Experiment, jobs: int, rows: list[dict] | None = None, cores: int | None = None
-) -> dict:
+    exp: Experiment, jobs: int, rows: list[dict] | None = None, cores: int | None = None,
+    store: Path = STORE,
+) -> dict:  # fmt: skip
     """{cells: {name: s}, serial_s, wall_s, jobs, cores_per_job} for a training experiment
     on `cores` cores (default: the ones this process may use)."""
     from mjx_skills.core.workers import usable_cores
@@ -121,9 +165,9 @@ def estimate(
     jobs = max(1, min(jobs, len(exp.cells())))  # as the sweep: no more workers than cells
     want = max(1, (cores or usable_cores()) // jobs)
     # The measured core count nearest to what each cell gets here.
-    cores = min({r["cores"] for r in rows}, key=lambda c: (abs(c - want), c))
+    cores = min({r["cores"] for r in rows} or {want}, key=lambda c: (abs(c - want), c))
     table = CostTable(tuple(rows), cores)
-    cells = {c.name: cell_seconds(c, table) for c in exp.cells()}
+    cells = {c.name: cell_seconds(c, table, store) for c in exp.cells()}
     return {"experiment": exp.name, "jobs": jobs, "cores_per_job": cores,
             "cells": {k: round(v) for k, v in cells.items()},
             "serial_s": round(sum(cells.values())),
