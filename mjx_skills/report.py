@@ -326,7 +326,7 @@ def render(r: Results, draw: bool = True) -> str:
             if experiment == "fast":
                 lines += ["", "The targets of the issue \"learn faster than the oracle explorer\":",
                           "", *table(faster.HEADER, faster.faster(r)), "",
-                          "Each ingredient removed in turn, on pick_move (`experiments/fast_no_*.toml`), and the pick also on container_wall (`experiments/fast_wall_no_pick.toml`):",
+                          "Each ingredient removed in turn: the first default's on pick_move (`experiments/fast_no_*.toml`) and its pick also on container_wall (`experiments/fast_wall_no_pick.toml`), against the first default (`experiments/fast_first.toml`, `fast_wall_first.toml`); today's eps floor on container_wall (`experiments/fast_wall_no_floor.toml`), against today's default:",
                           "", *table(faster.ABLATION_HEADER, faster.ablation_rows(r))]  # fmt: skip
         elif experiment == two_cubes.EXPERIMENT:
             lines += [two_cubes.INTRO, "", *table(two_cubes.HEADER, two_cubes.rows(r)), "",

@@ -8,16 +8,26 @@ import numpy as np
 from mjx_skills.analysis.claims import ci, compare, reach
 from mjx_skills.methods.ddpg_her_sl_fast import FAST_SEARCH
 
+FIRST = "eps over 10 epochs to 0.001"
+"""The explorer of DDPG+HER+SL+Fast's first default (today's: `FAST_SEARCH`)."""
 ABLATIONS = {"wide": "wide networks (3 x 64 units instead)",
              "updates": "extra updates (100 per cycle instead of 400)",
-             "eps": f"short explorer (eps decayed over 30 epochs instead of {FAST_SEARCH.eps_decay_epochs})",
+             "eps": "short explorer (eps decayed over 30 epochs instead of 10)",
              "pick": "the critic's pick (the actor alone acts)"}  # fmt: skip
-"""DDPG+HER+SL+Fast's ingredients, each removed in turn by experiments/fast_no_NAME.toml."""
-ABLATION_CELLS = (*((f"fast_no_{x}", "pick_move", "fast", why) for x, why in ABLATIONS.items()),
-                  ("fast_wall_no_pick", "container_wall", "fast_wall", ABLATIONS["pick"]))  # fmt: skip
-"""(experiment, task, the full method's experiment, what is removed): the ablations on
-pick_move, and the pick's also on container_wall (where seeds can stay stuck)."""
-EXPERIMENTS = ("fast", "fast_wall", *(row[0] for row in ABLATION_CELLS))
+"""The first default's ingredients, each removed in turn by experiments/fast_no_NAME.toml."""
+FLOOR = (f"the eps floor (eps decayed over {FAST_SEARCH.eps_decay_epochs} epochs to 0.001 "
+         f"instead of {FAST_SEARCH.eps_end})")  # fmt: skip
+ABLATION_CELLS = (*((f"fast_no_{x}", "pick_move", "fast_first", why) for x, why in ABLATIONS.items()),
+                  ("fast_wall_no_pick", "container_wall", "fast_wall_first", ABLATIONS["pick"]),
+                  ("fast_wall_no_floor", "container_wall", "fast_wall", FLOOR))  # fmt: skip
+"""(experiment, task, the full method's experiment, what is removed): the first default's
+ablations on pick_move and its pick's also on container_wall (where seeds can stay stuck);
+today's floor on container_wall, where it is what keeps seeds from staying stuck."""
+DEFAULTS = {"fast": "today's default", "fast_wall": "today's default",
+            "fast_first": f"the first default ({FIRST})",
+            "fast_wall_first": f"the first default ({FIRST})"}  # fmt: skip
+"""The full method's experiments and which default each holds."""
+EXPERIMENTS = (*DEFAULTS, *(row[0] for row in ABLATION_CELLS))
 TITLES = {"fast": "Beyond the thesis: DDPG+HER+SL+Fast, learning faster than the oracle explorer"}
 
 TARGETS = (("pick_move", 30), ("put_in_container", 40))
@@ -40,33 +50,43 @@ def seed_minimum(rows: list[dict], last: int = 10, upto: int | None = None) -> f
     return min(float(np.mean(v)) for v in by_seed.values())
 
 
+def _wall(r, experiment: str) -> tuple[str, bool | None]:
+    """container_wall's cell of `experiment` against `WALL`: (text, met; None: not run)."""
+    task, level, floor = WALL
+    cell, fast = r.find(experiment, task, "ddpg_her_sl_fast")
+    if fast is None:
+        return "not run yet", None
+    low = seed_minimum(r.metrics[cell.name])
+    text = (f"last 5: {ci(fast.last)}; lowest seed over its last 10: {low:.2f} "
+            f"({fast.seeds} seeds x {fast.epochs} epochs)")  # fmt: skip
+    return text, bool(fast.last[0] >= level and low >= floor)
+
+
 def faster(r) -> list[str]:
-    """The targets table: DDPG+HER+SL, the oracle explorer and DDPG+HER+SL+Fast, from
-    `report.Results` r."""
+    """The targets table: DDPG+HER+SL, the oracle explorer, DDPG+HER+SL+Fast's first default
+    and today's, from `report.Results` r; 'met' is today's."""
     rows = []
     for task, by in TARGETS:
         _, sl = r.find("fig6_3", task, "ddpg_her_sl")
         oracle = r.get("oracle", task, "ddpg_her_sl") if task == "pick_move" else None
+        first = r.get("fast_first", task, "ddpg_her_sl_fast")
         _, fast = r.find("fast", task, "ddpg_her_sl_fast")
         met = "" if fast is None else "yes" if fast.reach_90 and fast.reach_90 <= by else "no"
         rows.append([task, f"0.9 (rolling mean) by epoch {by}", _reach(sl),
-                     _reach(oracle) if task == "pick_move" else "-", _reach(fast), met])  # fmt: skip
+                     _reach(oracle) if task == "pick_move" else "-", _reach(first), _reach(fast),
+                     met])  # fmt: skip
     task, level, floor = WALL
-    _, sl = r.find("fig6_5", task, "ddpg_her_sl")
-    cell, fast = r.find("fast_wall", task, "ddpg_her_sl_fast")
-    ours, met = "not run yet", ""
-    if fast is not None:
-        low = seed_minimum(r.metrics[cell.name])
-        ours = (f"last 5: {ci(fast.last)}; lowest seed over its last 10: {low:.2f} "
-                f"({fast.seeds} seeds x {fast.epochs} epochs)")  # fmt: skip
-        met = "yes" if fast.last[0] >= level and low >= floor else "no"
+    sl = r.get("fig6_5", task, "ddpg_her_sl")
+    first, _ = _wall(r, "fast_wall_first")
+    ours, met = _wall(r, "fast_wall")
     rows.append([task, f"last 5 >= {level}, no seed < {floor} over its last 10",
-                 "-" if sl is None else f"last 5: {ci(sl.last)}", "-", ours, met])  # fmt: skip
+                 "-" if sl is None else f"last 5: {ci(sl.last)}", "-", first, ours,
+                 "" if met is None else "yes" if met else "no"])  # fmt: skip
     return rows
 
 
 HEADER = ["task", "target", "DDPG+HER+SL (0.9 at epoch)", "oracle explorer",
-          "DDPG+HER+SL+Fast", "met"]  # fmt: skip
+          f"DDPG+HER+SL+Fast, first default ({FIRST})", "DDPG+HER+SL+Fast", "met"]  # fmt: skip
 
 
 def ablation_rows(r) -> list[list[str]]:
@@ -79,9 +99,9 @@ def ablation_rows(r) -> list[list[str]]:
         cell, s = r.find(experiment, task, "ddpg_her_sl_fast")
         if full is not None and s is not None:
             full = r.first_epochs(full_cell, full, s.epochs)  # over the ablation's budget
-        if full is not None and (task, full.epochs) not in shown:
-            shown.add((task, full.epochs))
-            rows.append([task, "(none: the full method)", *_cells(r, full_cell, full, None)])
+        if full is not None and (base, task, full.epochs) not in shown:
+            shown.add((base, task, full.epochs))
+            rows.append([task, f"(none: {DEFAULTS[base]})", *_cells(r, full_cell, full, None)])
         verdict = compare(full, s, "auc", ("the full method", "the ablation"))
         rows.append([task, why, *_cells(r, cell, s, verdict)])
     return rows
