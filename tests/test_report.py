@@ -16,6 +16,26 @@ def test_first_reaching_uses_the_rolling_mean_not_a_single_epoch():
     assert stats.first_reaching(np.full(20, 0.5), 0.9) is None
 
 
+def test_the_interval_of_the_epoch_a_level_is_reached_resamples_whole_seeds():
+    """Seeds whose rolling mean reaches 0.9 at epochs 10, 10, 10 and 20: the seeds' mean
+    curve gets there at 18 (3 of 4 seeds at 1 from epoch 6, all from epoch 16); a resample
+    of only early seeds at 10, of only the late one at 20, and every other resample in
+    between; with the late seed replaced by one that never gets there, a resample of that
+    seed alone never reaches 0.9, so the upper bound is 'never'."""
+
+    def seed(at: int, epochs: int = 30) -> list[float]:
+        return [0.0] * (at - 5) + [1.0] * (epochs - at + 5)
+
+    early, late = seed(10), seed(20)
+    scores = np.array([early, early, early, late])
+    assert stats.first_reaching(scores.mean(axis=0)) == 18
+    low, high = stats.reach_interval(scores)
+    assert low == 10 and high == 20
+    assert stats.reach_interval(np.array([early] * 4)) == (10, 10)
+    stuck = np.array([early, early, early, [0.0] * 30])
+    assert stats.reach_interval(stuck)[1] is None
+
+
 def test_the_lowest_seed_is_judged_over_its_own_last_epochs_of_the_budget():
     """container_wall's floor: each seed's mean over its last 10 epochs (of the first `upto`),
     and the lowest of those; one stuck seed decides it, whatever the others do."""

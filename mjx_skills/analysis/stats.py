@@ -61,6 +61,29 @@ def first_reaching(curve: np.ndarray, level: float = 0.9, window: int = WINDOW) 
     return int(hits[0]) + window if len(hits) else None
 
 
+def reach_interval(
+    scores: np.ndarray, level: float = 0.9, window: int = WINDOW, seed: int = 0
+) -> tuple[int | None, int | None]:
+    """95 % percentile bootstrap interval of `first_reaching` over seeds: scores (seeds,
+    epochs) -> (low, high) epochs. Whole seeds' curves are resampled with replacement (arch's
+    IIDBootstrap; a curve's epochs stay together, unlike the per-epoch intervals above); a
+    resample that never reaches the level counts as after the last epoch, and a bound
+    there is None (never)."""
+    from arch.bootstrap import IIDBootstrap
+
+    scores = np.asarray(scores, dtype=np.float64)
+    never = scores.shape[1] + 1
+
+    def epoch(x: np.ndarray) -> float:
+        hit = first_reaching(x.mean(axis=0), level, window)
+        return float(never if hit is None else hit)
+
+    boot = IIDBootstrap(scores, seed=np.random.default_rng(seed))
+    low, high = boot.conf_int(epoch, reps=REPS, method="percentile", size=CONFIDENCE)[:, 0]
+    bound = lambda x: None if round(x) >= never else round(x)  # noqa: E731
+    return bound(low), bound(high)
+
+
 @dataclasses.dataclass(frozen=True)
 class Summary:
     """One cell's learning curve in numbers."""
