@@ -9,12 +9,16 @@ from mjx_skills.analysis import stats
 from mjx_skills.analysis.claims import LABEL, ci, reach
 
 EXPERIMENT = "two_objects"
+FAST = "two_objects_fast"
+"""DDPG+HER+SL+Fast on two_in_container, a shorter budget (its own experiment)."""
+EXPERIMENTS = (EXPERIMENT, FAST)
 TITLE = "Beyond the thesis: two cubes, the one-cube skill library used as it is"
-TARGET = ("two_in_container", 0.8, ("ddpg_her_sl", "mpas"))
+TARGET = ("two_in_container", 0.8, ("ddpg_her_sl", "mpas", "ddpg_her_sl_fast"))
 """(task, the last-5 mean one of these methods must reach, the methods)."""
 INTRO = (
     "`experiments/two_objects.toml`: every method on the two-cube tasks through the same "
-    "trainer, the skill library SL1 trained with one cube and not retrained (its skills act "
+    "trainer, and DDPG+HER+SL+Fast on two_in_container (`experiments/two_objects_fast.toml`, "
+    "a shorter budget), the skill library SL1 trained with one cube and not retrained (its skills act "
     "on either cube through the scene's projection, docs/methods.md). Success needs both "
     "cubes at their goals; 'cubes at their goals' is the share of the two cubes there at "
     "the end of the evaluation episodes (0.5: one of two), which says which stage fails; "
@@ -46,7 +50,7 @@ def explored(r, cell, epochs: int = 5) -> float:
 def rows(r) -> list[list[str]]:
     """One row per cell of the grid, from `report.Results` r."""
     out = []
-    for cell, s in r.cells[EXPERIMENT]:
+    for cell, s in (row for e in EXPERIMENTS for row in r.cells[e]):
         if s is None:
             out.append([cell.task, LABEL[cell.method], "not run yet", "", "", "", "", "", ""])
             continue
@@ -57,16 +61,20 @@ def rows(r) -> list[list[str]]:
 
 
 def verdict(r) -> list[str]:
-    """The issue's bar on two_in_container, in one sentence from the data."""
+    """The issue's bar on two_in_container, in one sentence from the data (over the cells
+    run so far, naming those not run yet)."""
     task, level, methods = TARGET
     flat = r.get(EXPERIMENT, task, "ddpg_her")
-    runs = {m: r.get(EXPERIMENT, task, m) for m in methods}
-    if flat is None or any(s is None for s in runs.values()):
+    runs = {m: r.get(FAST if m == "ddpg_her_sl_fast" else EXPERIMENT, task, m) for m in methods}
+    done = {m: s for m, s in runs.items() if s is not None}
+    if flat is None or not done:
         return [f"The bar on {task} (last 5 >= {level} for {' or '.join(LABEL[m] for m in methods)}"
                 ", DDPG+HER near 0): not all its cells are run yet."]  # fmt: skip
-    best = max(runs, key=lambda m: runs[m].last[0])
-    met = runs[best].last[0] >= level and flat.last[0] < NEAR_ZERO
+    best = max(done, key=lambda m: done[m].last[0])
+    met = done[best].last[0] >= level and flat.last[0] < NEAR_ZERO
+    missing = [LABEL[m] for m in methods if m not in done]
+    later = f" ({', '.join(missing)}: not run yet)" if missing else ""
     return [f"The bar on {task}: last 5 >= {level} for "
             f"{' or '.join(LABEL[m] for m in methods)} while DDPG+HER stays below {NEAR_ZERO}. "
-            f"Best: {LABEL[best]}, {ci(runs[best].last)}; DDPG+HER {ci(flat.last)}: "
-            f"**{'met' if met else 'not met'}**."]  # fmt: skip
+            f"Best: {LABEL[best]}, {ci(done[best].last)}; DDPG+HER {ci(flat.last)}: "
+            f"**{'met' if met else 'not met'}**{later}."]  # fmt: skip
