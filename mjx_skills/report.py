@@ -34,7 +34,7 @@ from mjx_skills.analysis.shorts import shorts
 from mjx_skills.config import LIBRARIES
 from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.experiments import Cell, load_experiment
-from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.metrics_log import read_metrics, wall_seconds
 
 DOC = Path("docs") / "results.md"
 README = Path("README.md")
@@ -60,7 +60,7 @@ class Results:
                 if where is not None:
                     metrics = self.metrics[cell.name] = read_metrics(where)
                     summary = stats.summarize(
-                        stats.scores_from_rows(metrics), wall_s=max(m["wall_s"] for m in metrics)
+                        stats.scores_from_rows(metrics), wall_s=wall_seconds(metrics)
                     )
                 rows.append((cell, summary))
             self.cells[name] = rows

@@ -36,6 +36,17 @@ def test_the_interval_of_the_epoch_a_level_is_reached_resamples_whole_seeds():
     assert stats.reach_interval(stuck)[1] is None
 
 
+def test_a_resumed_runs_wall_time_adds_up_the_stretches_of_each_process():
+    """wall_s restarts in the process that resumes a run: epochs 1-3 took 30 s, then the
+    run was trained on to 5 epochs in 25 s more (two seeds per epoch, the same wall_s)."""
+    from mjx_skills.training.metrics_log import wall_seconds
+
+    walls = {1: 10.0, 2: 20.0, 3: 30.0, 4: 12.0, 5: 25.0}
+    rows = [{"epoch": e, "seed": s, "wall_s": w} for e, w in walls.items() for s in (0, 1)]
+    assert wall_seconds(rows) == pytest.approx(55.0)
+    assert wall_seconds([r for r in rows if r["epoch"] <= 3]) == pytest.approx(30.0)
+
+
 def test_the_lowest_seed_is_judged_over_its_own_last_epochs_of_the_budget():
     """container_wall's floor: each seed's mean over its last 10 epochs (of the first `upto`),
     and the lowest of those; one stuck seed decides it, whatever the others do."""

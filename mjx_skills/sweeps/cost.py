@@ -89,6 +89,7 @@ def stored_epoch_s(cell: Cell, store: Path = STORE) -> float:
     another task scaled by episode length; then scaled by seeds."""
     from mjx_skills.envs.registry import ENVS
     from mjx_skills.sweeps.cells import defaults, differences, run_config
+    from mjx_skills.training.metrics_log import wall_seconds
 
     options = run_config(cell.run_args(out="", progress=False))["options"]
     default = defaults(cell.method)["options"]
@@ -99,8 +100,7 @@ def stored_epoch_s(cell: Cell, store: Path = STORE) -> float:
             continue
         metrics = [json.loads(x) for x in (d / "metrics.jsonl").read_text().splitlines()]
         train = config["train"]
-        last = max(metrics, key=lambda m: m["wall_s"])  # a resumed run's clock restarts
-        wall = last["wall_s"] / last["epoch"]
+        wall = wall_seconds(metrics) / max(m["epoch"] for m in metrics)
         rank = (
             train["task"] != cell.task,
             bool(differences(config["options"], options, default=default)),

@@ -63,3 +63,12 @@ def progress_bar(total: int, done: int, enabled: bool, desc: str):
 def read_metrics(run_dir: Path) -> list[dict]:
     path = Path(run_dir) / "metrics.jsonl"
     return [json.loads(line) for line in path.read_text().splitlines() if line]
+
+
+def wall_seconds(rows: list[dict]) -> float:
+    """A run's training wall time (s) from its metrics rows. `wall_s` counts from the start
+    of the process that wrote the row, so a resumed run's clock starts again: the time is
+    the sum of each stretch's last `wall_s` (a stretch ends where the next epoch's is lower)."""
+    by_epoch = sorted({m["epoch"]: m["wall_s"] for m in rows}.items())
+    walls = [w for _, w in by_epoch]
+    return float(sum(w for w, nxt in zip(walls, [*walls[1:], 0.0], strict=True) if nxt < w))
