@@ -90,18 +90,16 @@ def run_cell(cell: Cell, cell_dir: str, progress: bool = True, store: str = str(
     if hit is not None:
         return str(hit)
     run_dir = run_dir or copy_shorter_run(cell, Path(cell_dir))
-    extend = None  # a run of this cell's definition at a shorter budget trains on
-    if run_dir is not None:
-        budget = shorter_budget(run_dir, cell)
-        extend = None if budget is None else cell.epochs
-        diff = [] if budget is not None else cells.run_differences(run_dir, cell)
-        if diff:
-            raise ValueError(f"{run_dir} was run with another definition of {cell.name} "
-                             f"({'; '.join(diff[:6])}); delete {cell_dir} or use another "
-                             "--sweep-dir")  # fmt: skip
+    # A run of this cell's definition at a shorter budget trains on to the cell's.
+    shorter = run_dir is not None and shorter_budget(run_dir, cell) is not None
+    diff = [] if run_dir is None or shorter else cells.run_differences(run_dir, cell)
+    if diff:
+        raise ValueError(f"{run_dir} was run with another definition of {cell.name} "
+                         f"({'; '.join(diff[:6])}); delete {cell_dir} or use another "
+                         "--sweep-dir")  # fmt: skip
     if not finished(run_dir, cell):
-        args = (RunArgs(resume=str(run_dir), extend_to=extend) if run_dir
-                else cell.run_args(cell_dir, progress))  # fmt: skip
+        args = (RunArgs(resume=str(run_dir), extend_to=cell.epochs if shorter else None)
+                if run_dir else cell.run_args(cell_dir, progress))  # fmt: skip
         run_dir = train_run(args)
         if not finished(run_dir, cell):  # interrupted: it saved, starting again resumes
             return str(run_dir)

@@ -60,12 +60,22 @@ def rows(r) -> list[list[str]]:
     return out
 
 
+def _summary(r, task: str, method: str):
+    """The method's cell on `task` in whichever of `EXPERIMENTS` holds it (None: not run)."""
+    for experiment in EXPERIMENTS:
+        try:
+            return r.get(experiment, task, method)
+        except KeyError:  # not part of that experiment
+            continue
+    return None
+
+
 def verdict(r) -> list[str]:
     """The issue's bar on two_in_container, in one sentence from the data (over the cells
     run so far, naming those not run yet)."""
     task, level, methods = TARGET
     flat = r.get(EXPERIMENT, task, "ddpg_her")
-    runs = {m: r.get(FAST if m == "ddpg_her_sl_fast" else EXPERIMENT, task, m) for m in methods}
+    runs = {m: _summary(r, task, m) for m in methods}
     done = {m: s for m, s in runs.items() if s is not None}
     if flat is None or not done:
         return [f"The bar on {task} (last 5 >= {level} for {' or '.join(LABEL[m] for m in methods)}"

@@ -89,7 +89,7 @@ def stored_epoch_s(cell: Cell, store: Path = STORE) -> float:
     another task scaled by episode length; then scaled by seeds."""
     from mjx_skills.envs.registry import ENVS
     from mjx_skills.sweeps.cells import defaults, differences, run_config
-    from mjx_skills.training.metrics_log import wall_seconds
+    from mjx_skills.training.metrics_log import read_metrics, wall_seconds
 
     options = run_config(cell.run_args(out="", progress=False))["options"]
     default = defaults(cell.method)["options"]
@@ -98,7 +98,7 @@ def stored_epoch_s(cell: Cell, store: Path = STORE) -> float:
         config = json.loads((d / "definition.json").read_text())["config"]
         if config["method"] != cell.method:
             continue
-        metrics = [json.loads(x) for x in (d / "metrics.jsonl").read_text().splitlines()]
+        metrics = read_metrics(d)
         train = config["train"]
         wall = wall_seconds(metrics) / max(m["epoch"] for m in metrics)
         rank = (
