@@ -154,6 +154,13 @@ class EnvConfig:
     it lies (for tasks whose goal is the cube's position). The original code trains grasp
     with 0.5 (the HER paper's trick for pick-and-place); evaluation never does."""
 
+    object_reward: bool = False
+    """The step-wise sparse reward of several-cube tasks (Li et al. 2020, "Towards Practical
+    Multi-Object Manipulation using Relational RL"): minus the share of cubes not yet at
+    their goals (two cubes: -1, -0.5, 0) instead of -1 until every cube is at its goal.
+    Success is unchanged (every cube at its goal). One cube: the same reward either way.
+    Off: the tasks as the issue defines them."""
+
     single_goal: bool = False
     """Every episode has one desired goal, the mean of the task's goal distribution, instead
     of a goal drawn per episode: the single-goal formulation of the thesis's PAS baseline,

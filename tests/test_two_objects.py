@@ -43,6 +43,21 @@ def test_two_cube_tasks_score_both_cubes_and_refuse_held_starts():
         make("pick_move_two", held_start_prob=0.5)
 
 
+def test_the_step_wise_reward_counts_each_cube_and_success_still_needs_both():
+    """`object_reward`: -1, -0.5, 0 with none, one, both cubes in; without it -1 until both
+    are. HER recomputes it for relabelled goals, so it must hold on a batch."""
+    plain, each = make("two_in_container"), make("two_in_container", object_reward=True)
+    goal = jnp.concatenate([plain.goal, plain.goal])
+    inside = plain.goal + jnp.array([0.0, 0.025, 0.0])
+    outside = plain.goal + jnp.array([0.0, 0.2, 0.0])
+    pairs = ((outside, outside), (outside, inside), (inside, outside), (inside, inside))
+    achieved = jnp.stack([jnp.concatenate(pair) for pair in pairs])
+    goals = jnp.broadcast_to(goal, achieved.shape)
+    np.testing.assert_array_equal(each.compute_reward(achieved, goals), [-1.0, -0.5, -0.5, 0.0])
+    np.testing.assert_array_equal(plain.compute_reward(achieved, goals), [-1.0, -1.0, -1.0, 0.0])
+    np.testing.assert_array_equal(each.is_success(achieved, goals), [False, False, False, True])
+
+
 def test_the_joint_pas_critic_refuses_two_cube_tasks_before_writing_anything(tmp_path):
     from mjx_skills import train
 

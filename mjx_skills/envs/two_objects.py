@@ -110,6 +110,13 @@ class TwoObjects(BaxterEnv):
     def is_success(self, achieved, desired):
         return jnp.all(self.cube_success(achieved, desired), axis=-1)
 
+    def compute_reward(self, achieved, desired):
+        """Sparse: 0 once every cube is at its goal, else -1; with `object_reward` minus the
+        share of cubes not yet at their goals (-1, -0.5, 0)."""
+        if not self.config.object_reward:
+            return super().compute_reward(achieved, desired)
+        return jnp.mean(self.cube_success(achieved, desired), axis=-1, dtype=jnp.float32) - 1.0
+
     # ------------------------------------------------------------------ reset
     def _put_object(self, qpos, qvel, object_pos):
         qpos, qvel = super()._put_object(qpos, qvel, object_pos[0])
