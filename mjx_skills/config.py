@@ -154,6 +154,12 @@ class EnvConfig:
     it lies (for tasks whose goal is the cube's position). The original code trains grasp
     with 0.5 (the HER paper's trick for pick-and-place); evaluation never does."""
 
+    goal_start_prob: float = 0.0
+    """Share of training resets of several-cube tasks that start with one cube, drawn at
+    random among those whose goal rests on a surface, already at its goal (a reverse
+    curriculum, after Florensa et al. 2017, "Reverse Curriculum Generation for RL": the
+    learner meets the later stage, the other cube, without first solving the earlier one).
+    Evaluation never does. One-cube tasks refuse it."""
     object_reward: bool = False
     """The step-wise sparse reward of several-cube tasks (Li et al. 2020, "Towards Practical
     Multi-Object Manipulation using Relational RL"): minus the share of cubes not yet at
@@ -174,8 +180,14 @@ class EnvConfig:
             _check(getattr(self, name) >= 1, name, "must be >= 1")
         _check(self.grasp_settle_substeps >= 1, "grasp_settle_substeps", "must be >= 1")
         _check(self.action_scale > 0, "action_scale", "must be > 0")
+        for name in ("held_start_prob", "goal_start_prob"):
+            _check(0.0 <= getattr(self, name) <= 1.0, name, "must lie in [0, 1]")
         _check(self.max_qvel > 0, "max_qvel", "must be > 0")
-        _check(0.0 <= self.held_start_prob <= 1.0, "held_start_prob", "must lie in [0, 1]")
+
+    def for_evaluation(self) -> EnvConfig:
+        """This config without its training-only start distributions (held and goal
+        starts): what evaluation episodes start from."""
+        return dataclasses.replace(self, held_start_prob=0.0, goal_start_prob=0.0)
 
 
 @dataclasses.dataclass(frozen=True)

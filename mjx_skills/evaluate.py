@@ -51,7 +51,8 @@ class TrainedRun:
     run_dir: Path
     args: RunArgs
     env: Any
-    """The run's task env on the requested backend, with evaluation starts (no held starts)."""
+    """The run's task env on the requested backend, with evaluation starts (no held or goal
+    starts)."""
     learner: Learner
     aux: Any
     agents: Any
@@ -74,7 +75,7 @@ def load_trained(run_dir: Path, physics: str = "native") -> TrainedRun:
     options = args.full_options()
     aux = spec.load_aux(options)
     # As the trainer's evaluation env: training-only held starts never reach evaluation.
-    env = make(args.train.task, args.env, physics=physics, held_start_prob=0.0)
+    env = make(args.train.task, args.env.for_evaluation(), physics=physics)
     learner = spec.make_learner(env, args.train, **options)
     # Only the shapes of a fresh carry are needed to restore one: no replay is allocated.
     shapes = jax.eval_shape(
@@ -125,7 +126,7 @@ def evaluate_gym(run: TrainedRun, key: jax.Array, episodes: int) -> tuple[np.nda
     check_gym_supports(run.args.method)
     from mjx_skills.envs.gym import BaxterGymEnv  # gymnasium is an optional dependency
 
-    fields = {**dataclasses.asdict(run.args.env), "held_start_prob": 0.0}
+    fields = dataclasses.asdict(run.args.env.for_evaluation())
     fields.pop("physics")  # the adapter is native by construction
     env = BaxterGymEnv(run.args.train.task, **fields)
     ddpg_config = run.args.full_options()["ddpg"]

@@ -22,7 +22,7 @@ from mjx_skills.config import (
 CLASSES = (DDPGConfig, EnvConfig, TrainConfig, LibraryConfig, SearchConfig, PASConfig)
 AT_MOST_ONE = {
     DDPGConfig: ("gamma", "tau", "random_eps", "relabel_prob"),
-    EnvConfig: ("held_start_prob",),
+    EnvConfig: ("held_start_prob", "goal_start_prob"),
     LibraryConfig: ("grasp_held_start_prob", "own_start_share", "holdout"),
     SearchConfig: ("prune_below", "gamma", "waypoint_share", "search_chunk", "eps_start"),
     PASConfig: ("relabel_prob",),

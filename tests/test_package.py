@@ -105,3 +105,19 @@ def test_the_docs_cite_only_what_exists():
             if not ok:
                 missing.append(f"{page.name}: {kind} {name}")
     assert not missing, missing
+
+
+def test_the_scripted_section_is_what_the_committed_rates_give():
+    """docs/simulation.md's scripted success per env is computed from the committed
+    experiments/results/scripted.jsonl (tests/test_solvable.py checks that data against
+    today's controllers)."""
+    import runpy
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    rates = runpy.run_path(str(root / "experiments" / "diagnostics" / "scripted_rates.py"))
+    page = (root / "docs" / "simulation.md").read_text()
+    start, end = page.index(rates["BEGIN"]), page.index(rates["END"]) + len(rates["END"])
+    assert page[start:end] == rates["section"](), (
+        "run python experiments/diagnostics/scripted_rates.py --write"
+    )

@@ -216,9 +216,27 @@ def test_resume_takes_only_a_longer_budget_on_the_command_line():
             parse(["--resume", "RUN", *extra])
 
 
-def test_held_starts_never_reach_the_evaluation_episodes(monkeypatch):
-    """--env.held-start-prob 1: every training episode starts with the cube in the fingers,
-    no evaluation episode does (the epoch is built with a separate evaluation env)."""
+def _held(env, state):
+    return env.grasped(state.obs)
+
+
+def _a_cube_at_its_goal(env, state):
+    return env.cube_success(state.achieved_goal, state.desired_goal).any(-1)
+
+
+@pytest.mark.parametrize(
+    "task, field, started",
+    [
+        ("pick_move", "held_start_prob", _held),
+        ("two_in_container", "goal_start_prob", _a_cube_at_its_goal),
+    ],
+)
+def test_training_only_starts_never_reach_the_evaluation_episodes(
+    monkeypatch, task, field, started
+):
+    """--env.held-start-prob 1 (a cube in the fingers) or --env.goal-start-prob 1 (a cube
+    already at its goal): every training episode starts so, no evaluation episode does (the
+    epoch is built with a separate evaluation env)."""
     seen = {}
     real = train_mod.make_train_epoch
 
@@ -227,17 +245,17 @@ def test_held_starts_never_reach_the_evaluation_episodes(monkeypatch):
         return real(learner, env, cfg, eval_env)
 
     monkeypatch.setattr(train_mod, "make_train_epoch", spy)
-    cfg = TrainConfig(task="pick_move", envs=2, cycles=1, updates_per_cycle=1, eval_episodes=2,
+    cfg = TrainConfig(task=task, envs=2, cycles=1, updates_per_cycle=1, eval_episodes=2,
                       replay_capacity=1000, progress=False)  # fmt: skip
     from mjx_skills import methods
 
-    train_mod._build_program(methods.get("ddpg_her"), cfg, EnvConfig(held_start_prob=1.0),
+    train_mod._build_program(methods.get("ddpg_her"), cfg, EnvConfig(**{field: 1.0}),
                          {"ddpg": DDPGConfig()})  # fmt: skip
     keys = jax.random.split(jax.random.PRNGKey(0), 16)
-    starts = {role: jax.jit(jax.vmap(seen[role].reset))(keys).obs for role in ("train", "eval")}
-    assert np.all(np.asarray(seen["train"].grasped(starts["train"])))
+    starts = {role: jax.jit(jax.vmap(seen[role].reset))(keys) for role in ("train", "eval")}
+    assert np.all(np.asarray(started(seen["train"], starts["train"])))
     from mjx_skills.envs import make
 
-    plain = jax.jit(jax.vmap(make("pick_move").reset))(keys).obs  # the task's own starts
-    np.testing.assert_array_equal(np.asarray(starts["eval"]), np.asarray(plain))
-    assert np.mean(np.asarray(seen["eval"].grasped(starts["eval"]))) < 0.5
+    plain = jax.jit(jax.vmap(make(task).reset))(keys).obs  # the task's own starts
+    np.testing.assert_array_equal(np.asarray(starts["eval"].obs), np.asarray(plain))
+    assert np.mean(np.asarray(started(seen["eval"], starts["eval"]))) < 0.5

@@ -24,6 +24,7 @@ from mjx_skills.core import rollout
 from mjx_skills.envs import make
 from mjx_skills.envs.two_objects import object_views
 from mjx_skills.methods import ddpg_her_sl
+from mjx_skills.skills import lookahead
 from mjx_skills.skills.library import DEFAULT_DIR, load
 
 
@@ -46,7 +47,7 @@ def main() -> None:
 
     def step(ps, key, state):
         ps, action, record = explorer.step(ps, key, state)
-        view = jnp.take_along_axis(object_views(env, state.obs), ps.obj[:, None, None], 1)[:, 0]
+        view = lookahead.take_row(object_views(env, state.obs), ps.obj)
         return ps, action, {**record, "skill": ps.run.skill, "view": view,
                             "held": env.grasped(view),
                             "p": lib.success_prob(ps.run.skill, view, ps.run.goal)}  # fmt: skip

@@ -114,6 +114,8 @@ class BaxterEnv:
         self.model.qpos_spring[:7] = np.asarray(self.home_arm_qpos)
         self.model.jnt_stiffness[:7] = config.posture_stiffness
         self.backend = make_backend(self.model, config.physics, config.native_threads)
+        if config.goal_start_prob and self.n_objects == 1:
+            raise ValueError("goal_start_prob: goal starts are for tasks of several cubes")
         self.episode_length = config.episode_length or self.default_episode_length
         self.threshold = config.distance_threshold or self.default_threshold
         sensors = {name: self.model.sensor(name) for name in SENSORS}
@@ -233,13 +235,7 @@ class BaxterEnv:
         grip, object_pos, goal = self.sample_start(key)
         if self.config.single_goal:
             goal = self.single_goal
-        held = None
-        if self.config.held_start_prob > 0 and self.goal_is_object and not self.grasped_start:
-            # Training start with the cube closed in the fingers where it lies (fold_in:
-            # the other starts keep their keys).
-            coin = jax.random.uniform(jax.random.fold_in(key, 7))
-            held = coin < self.config.held_start_prob
-            grip = jnp.where(held, object_pos, grip)
+        grip, object_pos, held = self.training_start(key, grip, object_pos, goal)
         physics = self.place(grip, object_pos, held)
         zero = jnp.zeros((), jnp.float32)
         info = {"step": jnp.zeros((), jnp.int32), "start_physics": physics}
@@ -251,6 +247,18 @@ class BaxterEnv:
         )  # fmt: skip
         return self._observe(state, physics, state.metrics)
 
+    def training_start(self, key, grip, object_pos, goal):
+        """The training-only starts drawn over `sample_start`'s (fold_in: the other starts
+        keep their keys) -> (grip, object_pos, held: bool or None): with `held_start_prob`
+        the cube starts closed in the fingers where it lies."""
+        del goal
+        held = None
+        if self.config.held_start_prob > 0 and self.goal_is_object and not self.grasped_start:
+            coin = jax.random.uniform(jax.random.fold_in(key, 7))
+            held = coin < self.config.held_start_prob
+            grip = jnp.where(held, object_pos, grip)
+        return grip, object_pos, held
+
     def _observe(self, state: State, physics: PhysicsState, metrics: dict) -> State:
         sens = self.sensors(physics.sensordata)
         achieved = self.achieved_goal(sens)
@@ -261,7 +269,7 @@ class BaxterEnv:
         info = {**state.info, "grasped": self.grasped(obs)}
         return state.replace(
             physics=physics, obs=obs, achieved_goal=achieved,
-            reward=success.astype(jnp.float32) - 1.0, metrics=metrics, info=info,
+            reward=self.compute_reward(achieved, state.desired_goal), metrics=metrics, info=info,
         )  # fmt: skip
 
     def action_to_controls(self, grip_pos: jax.Array, action: jax.Array):

@@ -53,6 +53,9 @@ class TwoObjects(BaxterEnv):
     goal_dim = 6
     parked = np.stack([PARKED_OBJECT, PARKED_OBJECT + np.array([0.0, 0.5, 0.0])])
 
+    goal_rests = (True, True)
+    """Per cube: whether its goal rests on a surface, so that a goal start can put it there."""
+
     def __init__(self, config=None):
         super().__init__(config)
         if self.config.held_start_prob:
@@ -118,6 +121,19 @@ class TwoObjects(BaxterEnv):
         return jnp.mean(self.cube_success(achieved, desired), axis=-1, dtype=jnp.float32) - 1.0
 
     # ------------------------------------------------------------------ reset
+    def training_start(self, key, grip, object_pos, goal):
+        """With `goal_start_prob`, one cube drawn among those whose goal rests on a surface
+        (`goal_rests`) starts at its goal: object_pos (2, 3), goal (6,)."""
+        grip, object_pos, held = super().training_start(key, grip, object_pos, goal)
+        if self.config.goal_start_prob > 0:
+            k_coin, k_cube = jax.random.split(jax.random.fold_in(key, 11))
+            rests = jnp.asarray(self.goal_rests, jnp.float32)
+            k = jax.random.choice(k_cube, len(self.goal_rests), p=rests / rests.sum())
+            start = jax.random.uniform(k_coin) < self.config.goal_start_prob
+            at_goal = start & (jnp.arange(self.n_objects) == k)
+            object_pos = jnp.where(at_goal[:, None], goal.reshape(self.n_objects, 3), object_pos)
+        return grip, object_pos, held
+
     def _put_object(self, qpos, qvel, object_pos):
         qpos, qvel = super()._put_object(qpos, qvel, object_pos[0])
         pose = jnp.concatenate([object_pos[1], jnp.array([1.0, 0.0, 0.0, 0.0])])
@@ -161,6 +177,8 @@ class PickMoveTwo(TwoObjects, PickMove):
     air). Cubes and goals start at least 7 cm apart."""
 
     scene = "scene_pick_move_two.xml"
+    goal_rests = (True, False)
+    """The red cube's goal may lie in the air: only the blue cube can start at its goal."""
     default_episode_length = 120
     """At 150 steps the script's held red cube sometimes slips out of the fingers before the
     end (scripted success 0.78 against 0.95 at 100 or 120 steps)."""

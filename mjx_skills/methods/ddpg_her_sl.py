@@ -45,11 +45,6 @@ class ExploreState:
     """(B,) int32 the cube the running skill acts on (0 in a one-cube scene)."""
 
 
-def _row(x: jax.Array, k: jax.Array) -> jax.Array:
-    """x (B, n, ...) at k (B,) -> (B, ...)."""
-    return jnp.take_along_axis(x, k.reshape(-1, 1, *([1] * (x.ndim - 2))), axis=1)[:, 0]
-
-
 def epsilon(cfg: SearchConfig, epoch: jax.Array) -> jax.Array:
     """Linear decay from eps_start at epoch 0 to eps_end at eps_decay_epochs."""
     frac = jnp.clip(epoch / cfg.eps_decay_epochs, 0.0, 1.0)
@@ -104,7 +99,7 @@ def make_behaviour(
                                                cfg.stall_ahead)  # fmt: skip
             ps = ps.replace(obstacles=obstacles, stalls=count)
         views = object_views(env, obs)  # (B, n, 25)
-        seen = _row(views, ps.obj)
+        seen = lookahead.take_row(views, ps.obj)
         done = lib.terminated(run.skill, seen, run.goal) | (run.steps >= cfg.skill_steps) | stall
         decide = execution.decide(run, done)
         explore = decide & (jax.random.uniform(k_coin, run.steps.shape) < eps)
@@ -130,9 +125,15 @@ def make_behaviour(
         obj = jnp.argmax(found.utility, axis=1).astype(jnp.int32)  # the best cube's plan
         all_pruned = jnp.all(found.all_pruned, axis=1)
         start = explore & ~all_pruned
-        run = execution.advance(run, decide, start, _row(found.skill, obj), _row(found.goal, obj))
+        run = execution.advance(
+            run,
+            decide,
+            start,
+            lookahead.take_row(found.skill, obj),
+            lookahead.take_row(found.goal, obj),
+        )
         obj = jnp.where(start, obj, ps.obj)
-        skill_action = lib.policy_action(run.skill, _row(views, obj), run.goal)
+        skill_action = lib.policy_action(run.skill, lookahead.take_row(views, obj), run.goal)
         action = jnp.where(run.active[:, None], skill_action, own(k_noise, obs, task_goal))
         still = jnp.concatenate(
             [jnp.zeros_like(obs[:, :3]), jnp.where(held, -1.0, 1.0)[:, None]], -1

@@ -126,7 +126,7 @@ def pick(
     q = ddpg.q_value(agent, rows(obs), rows(goal), candidates, config)  # (B, 1 + n)
     q = jnp.where(jnp.concatenate([jnp.ones_like(ok[:, :1]), ok], axis=1), q, -jnp.inf)
     best = jnp.argmax(q, axis=1)
-    action = jnp.take_along_axis(candidates, best[:, None, None], axis=1)[:, 0]
+    action = lookahead.take_row(candidates, best)
     return action, best > 0
 
 

@@ -84,6 +84,11 @@ def sample_edges(
     return skill, goal, ok
 
 
+def take_row(x: jax.Array, k: jax.Array) -> jax.Array:
+    """x (B, n, ...) at k (B,) int -> (B, ...): each batch row's k-th entry."""
+    return jnp.take_along_axis(x, k.reshape(-1, 1, *([1] * (x.ndim - 2))), axis=1)[:, 0]
+
+
 def _draws(key: jax.Array, lead: tuple[int, ...], k: int) -> tuple[jax.Array, ...]:
     """Random draws of edges (leading shape `lead`) from one key: skill scores (..., k),
     goal noise in [-1, 1] (..., 3), transit height share (...), grasp lift parameter in
@@ -193,11 +198,10 @@ def search_envs(
         alive, path_u = valid, u
     u_all = jnp.concatenate(best_u, axis=1)
     i = jnp.argmax(u_all, axis=1)
-    pick = lambda x: jnp.take_along_axis(x, i.reshape(B, 1, *[1] * (x.ndim - 2)), axis=1)[:, 0]
-    utility = pick(u_all)
+    utility = take_row(u_all, i)
     return SearchResult(
-        skill=pick(jnp.concatenate(best_skill, axis=1)),
-        goal=pick(jnp.concatenate(best_goal, axis=1)),
+        skill=take_row(jnp.concatenate(best_skill, axis=1), i),
+        goal=take_row(jnp.concatenate(best_goal, axis=1), i),
         all_pruned=~jnp.isfinite(utility),
         utility=utility,
     )

@@ -191,8 +191,9 @@ def _build_program(spec: methods.Method, train: TrainConfig, env_cfg: EnvConfig,
     from mjx_skills.envs import make
 
     env = make(train.task, env_cfg)
-    # Training-only start distributions (held starts) never reach the evaluation episodes.
-    eval_env = make(train.task, env_cfg, held_start_prob=0.0) if env_cfg.held_start_prob else env
+    # Training-only start distributions (held, goal starts) never reach the evaluation episodes.
+    eval_cfg = env_cfg.for_evaluation()
+    eval_env = env if eval_cfg == env_cfg else make(train.task, eval_cfg)
     learner = spec.make_learner(env, train, **options)
     epoch = over_seeds(make_train_epoch(learner, env, train, eval_env), in_axes=(0, None))
     epoch_fn = jax.jit(epoch, donate_argnums=0)
