@@ -234,6 +234,10 @@ def figure(r: Results, experiment: str, out: Path, draw: bool = True) -> Path | 
             pairs += [
                 (c, s, "oracle explorer", True) for c, s in r.cells["oracle"] if c.task == task
             ]
+        if experiment == two_cubes.EXPERIMENT:  # DDPG+HER+SL+Fast and its variants, dashed
+            pairs += [(c, s, two_cubes.VARIANTS.get(e, ""), True)
+                      for e in two_cubes.EXPERIMENTS[1:] for c, s in r.cells[e] if c.task == task]  # fmt: skip
+        tags = list(dict.fromkeys(tag for *_, tag, _ in pairs if tag))
         for cell, s, tag, dashed in pairs:
             if s is None:
                 continue
@@ -241,6 +245,8 @@ def figure(r: Results, experiment: str, out: Path, draw: bool = True) -> Path | 
             label += f" ({tag})" if tag else ""
             index = (libraries.index(cell.library) if experiment == "fig6_4"
                      else list(LABEL).index(cell.method))  # fmt: skip
+            if experiment == two_cubes.EXPERIMENT and tag:  # each variant its own colour
+                index = len(LABEL) + tags.index(tag)
             x = np.arange(1, s.epochs + 1)
             ax.plot(x, s.curve, label=label, lw=1.4, color=f"C{index}",
                     ls="--" if dashed else "-")  # fmt: skip

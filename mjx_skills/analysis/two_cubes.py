@@ -11,14 +11,21 @@ from mjx_skills.analysis.claims import LABEL, ci, reach
 EXPERIMENT = "two_objects"
 FAST = "two_objects_fast"
 """DDPG+HER+SL+Fast on two_in_container, a shorter budget (its own experiment)."""
-EXPERIMENTS = (EXPERIMENT, FAST)
+VARIANTS = {
+    "two_objects_fast_reward": "step-wise reward",
+    "two_objects_fast_goal_start": "step-wise reward, goal starts 0.5",
+}
+"""DDPG+HER+SL+Fast on two_in_container with the options of docs/simulation.md (their own
+experiments), by experiment: what the method column adds to the method's name."""
+EXPERIMENTS = (EXPERIMENT, FAST, *VARIANTS)
 TITLE = "Beyond the thesis: two cubes, the one-cube skill library used as it is"
 TARGET = ("two_in_container", 0.8, ("ddpg_her_sl", "mpas", "ddpg_her_sl_fast"))
 """(task, the last-5 mean one of these methods must reach, the methods)."""
 INTRO = (
     "`experiments/two_objects.toml`: every method on the two-cube tasks through the same "
     "trainer, and DDPG+HER+SL+Fast on two_in_container (`experiments/two_objects_fast.toml`, "
-    "a shorter budget), the skill library SL1 trained with one cube and not retrained (its skills act "
+    "a shorter budget; with the step-wise reward and goal starts of docs/simulation.md in "
+    "`two_objects_fast_reward.toml` and `two_objects_fast_goal_start.toml`), the skill library SL1 trained with one cube and not retrained (its skills act "
     "on either cube through the scene's projection, docs/methods.md). Success needs both "
     "cubes at their goals; 'cubes at their goals' is the share of the two cubes there at "
     "the end of the evaluation episodes (0.5: one of two), which says which stage fails; "
@@ -50,24 +57,36 @@ def explored(r, cell, epochs: int = 5) -> float:
 def rows(r) -> list[list[str]]:
     """One row per cell of the grid, from `report.Results` r."""
     out = []
-    for cell, s in (row for e in EXPERIMENTS for row in r.cells[e]):
-        if s is None:
-            out.append([cell.task, LABEL[cell.method], "not run yet", "", "", "", "", "", ""])
-            continue
-        out.append([cell.task, LABEL[cell.method], f"{s.seeds} x {s.epochs}", ci(s.last),
-                    reach(s.reach_90), ci(s.auc), ci(cubes(r, cell).last),
-                    f"{explored(r, cell):.2f}", f"{s.wall_s / 60:.0f}"])  # fmt: skip
+    for experiment in EXPERIMENTS:
+        for cell, s in r.cells[experiment]:
+            out.append(_row(r, cell, s, _name(cell.method, experiment)))
     return out
 
 
-def _summary(r, task: str, method: str):
-    """The method's cell on `task` in whichever of `EXPERIMENTS` holds it (None: not run)."""
+def _name(method: str, experiment: str) -> str:
+    """The method's label, with its variant's where the experiment is one (`VARIANTS`)."""
+    return f"{LABEL[method]} ({VARIANTS[experiment]})" if experiment in VARIANTS else LABEL[method]
+
+
+def _row(r, cell, s, name: str) -> list[str]:
+    if s is None:
+        return [cell.task, name, "not run yet", "", "", "", "", "", ""]
+    return [cell.task, name, f"{s.seeds} x {s.epochs}", ci(s.last), reach(s.reach_90), ci(s.auc),
+            ci(cubes(r, cell).last), f"{explored(r, cell):.2f}", f"{s.wall_s / 60:.0f}"]  # fmt: skip
+
+
+def _runs(r, task: str, methods) -> list[tuple[str, str, object]]:
+    """(method, name, Summary) of every cell run of `methods` on `task` in `EXPERIMENTS`."""
+    out = []
     for experiment in EXPERIMENTS:
-        try:
-            return r.get(experiment, task, method)
-        except KeyError:  # not part of that experiment
-            continue
-    return None
+        for method in methods:
+            try:
+                s = r.get(experiment, task, method)
+            except KeyError:  # not part of that experiment
+                continue
+            if s is not None:
+                out.append((method, _name(method, experiment), s))
+    return out
 
 
 def verdict(r) -> list[str]:
@@ -75,16 +94,15 @@ def verdict(r) -> list[str]:
     run so far, naming those not run yet)."""
     task, level, methods = TARGET
     flat = r.get(EXPERIMENT, task, "ddpg_her")
-    runs = {m: _summary(r, task, m) for m in methods}
-    done = {m: s for m, s in runs.items() if s is not None}
+    done = _runs(r, task, methods)
     if flat is None or not done:
         return [f"The bar on {task} (last 5 >= {level} for {' or '.join(LABEL[m] for m in methods)}"
                 ", DDPG+HER near 0): not all its cells are run yet."]  # fmt: skip
-    best = max(done, key=lambda m: done[m].last[0])
-    met = done[best].last[0] >= level and flat.last[0] < NEAR_ZERO
-    missing = [LABEL[m] for m in methods if m not in done]
+    _, best, s = max(done, key=lambda run: run[2].last[0])
+    met = s.last[0] >= level and flat.last[0] < NEAR_ZERO
+    missing = [LABEL[m] for m in methods if m not in {method for method, _, _ in done}]
     later = f" ({', '.join(missing)}: not run yet)" if missing else ""
     return [f"The bar on {task}: last 5 >= {level} for "
             f"{' or '.join(LABEL[m] for m in methods)} while DDPG+HER stays below {NEAR_ZERO}. "
-            f"Best: {LABEL[best]}, {ci(done[best].last)}; DDPG+HER {ci(flat.last)}: "
+            f"Best: {best}, {ci(s.last)}; DDPG+HER {ci(flat.last)}: "
             f"**{'met' if met else 'not met'}**{later}."]  # fmt: skip
