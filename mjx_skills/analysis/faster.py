@@ -24,11 +24,17 @@ ABLATION_CELLS = (*((f"fast_no_{x}", "pick_move", "fast_first", why) for x, why 
 """(experiment, task, the full method's experiment, what is removed): the first default's
 ablations on pick_move and its pick's also on container_wall (where seeds can stay stuck);
 today's floor on container_wall, where it is what keeps seeds from staying stuck."""
+ADDITION_CELLS = (
+    ("fast_u800", "pick_move", "fast", "more updates (800 per cycle instead of 400)"),
+    ("fast_held", "pick_move", "fast", "held starts (half the training starts with the cube held)"),
+)
+"""(experiment, task, today's default's experiment, what is added or changed): candidates for
+pick_move's target, each measured against today's default over the same epochs."""
 DEFAULTS = {"fast": "today's default", "fast_wall": "today's default",
             "fast_first": f"the first default ({FIRST})",
             "fast_wall_first": f"the first default ({FIRST})"}  # fmt: skip
 """The full method's experiments and which default each holds."""
-EXPERIMENTS = (*DEFAULTS, *(row[0] for row in ABLATION_CELLS))
+EXPERIMENTS = (*DEFAULTS, *(row[0] for row in (*ABLATION_CELLS, *ADDITION_CELLS)))
 TITLES = {"fast": "Beyond the thesis: DDPG+HER+SL+Fast, learning faster than the oracle explorer"}
 
 TARGETS = (("pick_move", 30), ("put_in_container", 40))
@@ -93,12 +99,13 @@ HEADER = ["task", "target", "DDPG+HER+SL (0.9 at epoch)", "oracle explorer",
           f"DDPG+HER+SL+Fast, first default ({FIRST})", "DDPG+HER+SL+Fast", "met"]  # fmt: skip
 
 
-def ablation_rows(r) -> list[list[str]]:
-    """One row per ablation (`ABLATION_CELLS`): what it reaches, and whether the full method
-    is faster (its interval of the mean over epochs entirely above the ablation's, over the
-    ablation's epochs); before them, the full method's row over each budget they use."""
+def ablation_rows(r, cells=ABLATION_CELLS, names=("the full method", "the ablation")):
+    """One row per ablation (`ABLATION_CELLS`; or per addition, `ADDITION_CELLS`): what it
+    reaches, and which is faster (whose interval of the mean over epochs lies entirely above
+    the other's, over the ablation's epochs); before them, the full method's row over each
+    budget they use."""
     rows, shown = [], set()
-    for experiment, task, base, why in ABLATION_CELLS:
+    for experiment, task, base, why in cells:
         full_cell, full = r.find(base, task, "ddpg_her_sl_fast")
         cell, s = r.find(experiment, task, "ddpg_her_sl_fast")
         if full is not None and s is not None:
@@ -106,7 +113,7 @@ def ablation_rows(r) -> list[list[str]]:
         if full is not None and (base, task, full.epochs) not in shown:
             shown.add((base, task, full.epochs))
             rows.append([task, f"(none: {DEFAULTS[base]})", *_cells(r, full_cell, full, None)])
-        verdict = compare(full, s, "auc", ("the full method", "the ablation"))
+        verdict = compare(full, s, "auc", names)
         rows.append([task, why, *_cells(r, cell, s, verdict)])
     return rows
 
