@@ -1,12 +1,13 @@
 """Video of a trained run's final policy (one trained seed) on fresh evaluation episodes.
 
 python -m mjx_skills.render RUN_DIR [--episodes 1] [--out RUN_DIR/render.gif] [--seed 10000]
-    [--run-seed 0] [--width 480 --height 360] [--camera NAME] [--overwrite]
+    [--run-seed 0] [--width 480 --height 360] [--camera NAME] [--overwrite] [--solved]
 
 The episodes run in the JAX env on the native backend (`rollout.run_episodes` with the
 method's deterministic evaluation behaviour, as `python -m mjx_skills.evaluate`); each state's
 joint positions are then set on one MjData and drawn offscreen by `mujoco.Renderer`: one
 frame per env step (0.15 s of simulated time), each episode's start state included.
+`--solved` draws only the episodes that end solved, and says how many of those run did.
 
 OpenGL: MuJoCo picks its GL backend from MUJOCO_GL when it is first imported. Without a
 display, use MUJOCO_GL=egl (Debian packages libegl1, libegl-mesa0 and libgl1-mesa-dri: a
@@ -115,6 +116,16 @@ def record_episodes(
     return tuple(np.asarray(x) for x in jax.jit(fn)(agent, run.aux, key))
 
 
+def solved_only(qpos, grip, success) -> tuple[np.ndarray, np.ndarray]:
+    """`record_episodes`' qpos (n, T + 1, nq) and grip (n, T + 1, 3) of the episodes whose
+    success (n,) is set. ValueError when none is."""
+    solved = np.asarray(success) > 0
+    if not solved.any():
+        raise ValueError(f"none of the {len(solved)} episode(s) was solved; nothing to draw "
+                         "(try more --episodes)")  # fmt: skip
+    return np.asarray(qpos)[solved], np.asarray(grip)[solved]
+
+
 def draw_frames(
     model: Any, qpos: np.ndarray, grip: np.ndarray, width: int, height: int, camera: str | None
 ) -> np.ndarray:
@@ -178,6 +189,9 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--height", type=positive_int, default=360)
     parser.add_argument("--camera", help="a camera of the model (default: a free view)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    parser.add_argument("--solved", action="store_true",
+                        help="draw only the episodes the policy solves (of the --episodes run; "
+                             "the line printed says how many)")  # fmt: skip
     return parser.parse_args(argv)
 
 
@@ -196,14 +210,17 @@ def main(argv: list[str] | None = None) -> None:
         qpos, grip, success = record_episodes(
             run, jax.random.PRNGKey(args.seed), args.episodes, args.run_seed
         )
+        if args.solved:
+            qpos, grip = solved_only(qpos, grip, success)
         frames = draw_frames(run.env.model, qpos, grip, args.width, args.height, args.camera)
     except (FileNotFoundError, ValueError, NotImplementedError) as err:
         # Not a run, no checkpoint, an unknown camera, a missing skill library.
         raise SystemExit(f"error: {err}") from None
     frame_s = run.env.model.opt.timestep * run.env.config.n_substeps
     write_video(out, frames, frame_s)
+    drawn = f"the {len(qpos)} solved of {args.episodes}" if args.solved else args.episodes
     print(
-        f"{out}: {args.episodes} episode(s) of seed {args.run_seed} at epoch {run.epoch}, {len(frames)} "
+        f"{out}: {drawn} episode(s) of seed {args.run_seed} at epoch {run.epoch}, {len(frames)} "
         f"frames of {args.width}x{args.height}, {1 / frame_s:.2f} per second; "
         f"success {[int(s) for s in success]}"
     )

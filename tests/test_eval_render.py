@@ -127,3 +127,13 @@ def test_render_writes_a_gif_of_the_episode(trained, tmp_path, env_factory):
     assert frames[0].shape == (64, 64, 3)
     assert all(f.std() > 10 for f in frames), "a blank frame"
     assert np.abs(frames[0] - frames[-1]).mean() > 0.5, "the arm did not move on screen"
+
+
+def test_render_solved_draws_only_the_solved_episodes_and_refuses_when_none_is():
+    qpos = np.arange(3 * 4 * 2, dtype=np.float32).reshape(3, 4, 2)
+    grip = qpos[..., :1].repeat(3, axis=-1)
+    kept_q, kept_g = render.solved_only(qpos, grip, np.array([0.0, 1.0, 1.0]))
+    np.testing.assert_array_equal(kept_q, qpos[1:])
+    np.testing.assert_array_equal(kept_g, grip[1:])
+    with pytest.raises(ValueError, match="none of the 3 episode"):
+        render.solved_only(qpos, grip, np.zeros(3))
