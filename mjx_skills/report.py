@@ -335,7 +335,7 @@ def render(r: Results, draw: bool = True) -> str:
                           "", *table(faster.HEADER, faster.faster(r)), "",
                           "Each ingredient removed in turn: the first default's on pick_move (`experiments/fast_no_*.toml`) and its pick also on container_wall (`experiments/fast_wall_no_pick.toml`), against the first default (`experiments/fast_first.toml`, `fast_wall_first.toml`); today's eps floor on container_wall (`experiments/fast_wall_no_floor.toml`), against today's default:",
                           "", *table(faster.ABLATION_HEADER, faster.ablation_rows(r)), "",
-                          "Candidates for pick_move's target, each added to today's default in turn (`experiments/fast_u800.toml`, `fast_held.toml`):",
+                          "Candidates for pick_move's target, each added to today's default in turn (`experiments/fast_u800.toml`, `fast_held.toml`, `fast_quiet.toml`):",
                           "", *table(["task", "added", *faster.ABLATION_HEADER[2:]],
                                      faster.ablation_rows(r, faster.ADDITION_CELLS, ("today's default", "the addition")))]  # fmt: skip
         elif experiment == two_cubes.EXPERIMENT:

@@ -27,6 +27,7 @@ today's floor on container_wall, where it is what keeps seeds from staying stuck
 ADDITION_CELLS = (
     ("fast_u800", "pick_move", "fast", "more updates (800 per cycle instead of 400)"),
     ("fast_held", "pick_move", "fast", "held starts (half the training starts with the cube held)"),
+    ("fast_quiet", "pick_move", "fast", "no random actions (random_eps 0 instead of 0.2)"),
 )
 """(experiment, task, today's default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against today's default over the same epochs."""
