@@ -59,9 +59,9 @@ def section() -> str:
     rates = " · ".join(f"{name} {rows[name]['success']:.2f}" for name in ENVS)
     low = min(rows[name]["success"] for name in ENVS)
     verdict = (
-        f"every env is solved in at least {BAR:.0%} of the episodes"
+        f"every env is solved in at least {BAR * 100:.0f} % of the episodes"
         if low >= BAR
-        else f"the lowest is {low:.2f}, under the bar of {BAR:.0%}"
+        else f"the lowest is {low:.2f}, under the bar of {BAR * 100:.0f} %"
     )
     return "\n".join([BEGIN, "", f"{rates}: {verdict}, with this physics and these predicates.",
                       "", END])  # fmt: skip
