@@ -14,6 +14,7 @@ FAST = "two_objects_fast"
 VARIANTS = {
     "two_objects_fast_reward": "step-wise reward",
     "two_objects_fast_goal_start": "step-wise reward, goal starts 0.5",
+    "two_objects_fast_pick_move_two": "step-wise reward",
 }
 """DDPG+HER+SL+Fast on two_in_container with the options of docs/simulation.md (their own
 experiments), by experiment: what the method column adds to the method's name."""
@@ -25,7 +26,8 @@ INTRO = (
     "`experiments/two_objects.toml`: every method on the two-cube tasks through the same "
     "trainer, and DDPG+HER+SL+Fast on two_in_container (`experiments/two_objects_fast.toml`, "
     "a shorter budget; with the step-wise reward and goal starts of docs/simulation.md in "
-    "`two_objects_fast_reward.toml` and `two_objects_fast_goal_start.toml`), the skill library SL1 trained with one cube and not retrained (its skills act "
+    "`two_objects_fast_reward.toml` and `two_objects_fast_goal_start.toml`; on pick_move_two "
+    "with the step-wise reward in `two_objects_fast_pick_move_two.toml`), the skill library SL1 trained with one cube and not retrained (its skills act "
     "on either cube through the scene's projection, docs/methods.md). Success needs both "
     "cubes at their goals; 'cubes at their goals' is the share of the two cubes there at "
     "the end of the evaluation episodes (0.5: one of two), which says which stage fails; "
