@@ -58,16 +58,21 @@ def test_the_step_wise_reward_counts_each_cube_and_success_still_needs_both():
     np.testing.assert_array_equal(each.is_success(achieved, goals), [False, False, False, True])
 
 
-@pytest.mark.parametrize("task, cubes", [("two_in_container", (0, 1)), ("pick_move_two", (0,))])
-def test_a_goal_start_puts_one_cube_whose_goal_rests_on_a_surface_at_its_goal(task, cubes):
+@pytest.mark.parametrize(
+    "task, cubes, off", [("two_in_container", (0, 1), 0.025), ("pick_move_two", (0,), 0.0)]
+)
+def test_a_goal_start_puts_one_cube_whose_goal_rests_on_a_surface_at_its_goal(task, cubes, off):
     """--env.goal-start-prob 1: every reset has exactly one cube at its goal, drawn among the
-    cubes whose goal rests on a surface (pick_move_two's red goal may be in the air), and
-    the task not yet solved; one-cube tasks refuse it."""
+    cubes whose goal rests on a surface (pick_move_two's red goal may be in the air), `off`
+    m from it (two_in_container: room for the other cube beside it), and the task not yet
+    solved; one-cube tasks refuse it."""
     env = make(task, goal_start_prob=1.0)
     states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), 24))
     at_goal = np.asarray(env.cube_success(states.achieved_goal, states.desired_goal))
     np.testing.assert_array_equal(at_goal.sum(axis=1), 1)
     assert set(np.flatnonzero(at_goal.any(axis=0))) == set(cubes)
+    gap = np.asarray(states.achieved_goal - states.desired_goal).reshape(-1, 2, 3)[at_goal]
+    np.testing.assert_allclose(np.linalg.norm(gap[:, :2], axis=-1), off, atol=5e-3)
     assert not np.asarray(states.metrics["success"]).any()
     assert np.asarray(states.metrics["physics_resets"]).sum() == 0
     with pytest.raises(ValueError, match="goal_start_prob"):

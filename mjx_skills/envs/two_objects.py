@@ -55,6 +55,9 @@ class TwoObjects(BaxterEnv):
 
     goal_rests = (True, True)
     """Per cube: whether its goal rests on a surface, so that a goal start can put it there."""
+    goal_start_offset = 0.0
+    """How far (m, xy, in a random direction) from its goal a goal start puts the cube: room
+    for the other cube where both share a goal."""
 
     def __init__(self, config=None):
         super().__init__(config)
@@ -123,15 +126,19 @@ class TwoObjects(BaxterEnv):
     # ------------------------------------------------------------------ reset
     def training_start(self, key, grip, object_pos, goal):
         """With `goal_start_prob`, one cube drawn among those whose goal rests on a surface
-        (`goal_rests`) starts at its goal: object_pos (2, 3), goal (6,)."""
+        (`goal_rests`) starts at its goal, `goal_start_offset` from it in a random direction:
+        object_pos (2, 3), goal (6,)."""
         grip, object_pos, held = super().training_start(key, grip, object_pos, goal)
         if self.config.goal_start_prob > 0:
-            k_coin, k_cube = jax.random.split(jax.random.fold_in(key, 11))
+            k_coin, k_cube, k_dir = jax.random.split(jax.random.fold_in(key, 11), 3)
             rests = jnp.asarray(self.goal_rests, jnp.float32)
             k = jax.random.choice(k_cube, len(self.goal_rests), p=rests / rests.sum())
             start = jax.random.uniform(k_coin) < self.config.goal_start_prob
             at_goal = start & (jnp.arange(self.n_objects) == k)
-            object_pos = jnp.where(at_goal[:, None], goal.reshape(self.n_objects, 3), object_pos)
+            angle = jax.random.uniform(k_dir, (), maxval=2 * jnp.pi)
+            offset = self.goal_start_offset * jnp.array([jnp.cos(angle), jnp.sin(angle), 0.0])
+            there = goal.reshape(self.n_objects, 3) + offset
+            object_pos = jnp.where(at_goal[:, None], there, object_pos)
         return grip, object_pos, held
 
     def _put_object(self, qpos, qvel, object_pos):
@@ -200,6 +207,10 @@ class TwoInContainer(TwoObjects, PutInContainer):
 
     scene = "scene_two_in_container.xml"
     default_episode_length = 200
+    goal_start_offset = 0.025
+    """A goal start's cube sits 2.5 cm off the container's centre, as the scripted controller
+    places each (its cubes are 4 cm wide; both must lie within 5 cm of the centre), leaving
+    room for the other. At the centre itself the other cube would have only a 1 cm ring."""
 
     def sample_start(self, key):
         k_grip, k1, k2 = jax.random.split(key, 3)
