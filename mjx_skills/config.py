@@ -153,20 +153,13 @@ class EnvConfig:
     """Share of training resets that start with the cube already closed in the fingers where
     it lies (for tasks whose goal is the cube's position). The original code trains grasp
     with 0.5 (the HER paper's trick for pick-and-place); evaluation never does."""
-
     goal_start_prob: float = 0.0
-    """Share of training resets of several-cube tasks that start with one cube, drawn at
-    random among those whose goal rests on a surface, already at its goal (a reverse
-    curriculum, after Florensa et al. 2017, "Reverse Curriculum Generation for RL": the
-    learner meets the later stage, the other cube, without first solving the earlier one).
-    Evaluation never does. One-cube tasks refuse it."""
+    """Share of training resets of several-cube tasks with one cube (whose goal rests on a
+    surface) starting at its goal: a reverse curriculum (Florensa et al. 2017). Evaluation
+    never does; one-cube tasks refuse it."""
     object_reward: bool = False
-    """The step-wise sparse reward of several-cube tasks (Li et al. 2020, "Towards Practical
-    Multi-Object Manipulation using Relational RL"): minus the share of cubes not yet at
-    their goals (two cubes: -1, -0.5, 0) instead of -1 until every cube is at its goal.
-    Success is unchanged (every cube at its goal). One cube: the same reward either way.
-    Off: the tasks as the issue defines them."""
-
+    """Several cubes: the step-wise sparse reward (Li et al. 2020), minus the share of cubes
+    not at their goals (-1, -0.5, 0), instead of -1 until all are. Success is unchanged."""
     single_goal: bool = False
     """Every episode has one desired goal, the mean of the task's goal distribution, instead
     of a goal drawn per episode: the single-goal formulation of the thesis's PAS baseline,
@@ -185,8 +178,7 @@ class EnvConfig:
         _check(self.max_qvel > 0, "max_qvel", "must be > 0")
 
     def for_evaluation(self) -> EnvConfig:
-        """This config without its training-only start distributions (held and goal
-        starts): what evaluation episodes start from."""
+        """This config without its training-only starts (held, goal): evaluation's."""
         return dataclasses.replace(self, held_start_prob=0.0, goal_start_prob=0.0)
 
 
@@ -259,10 +251,9 @@ class LibraryConfig:
     """Adam learning rate of the coarse model (thesis: 1e-5, for 3 x 1000 units)."""
     anchor: Literal["start", "goal"] = "goal"
     """What the coarse model's prediction and a recalled memory are measured from: 'start'
-    (the thesis: the change from the start state; memory returns the stored terminal state)
-    or 'goal' (the grip and cube positions relative to the skill's goal, where a successful
-    run ends within the success threshold; a recalled neighbour's offset from its own goal
-    is carried over to the query's). Table 5.1 for both: docs/results.md."""
+    (the thesis: the change from the start state) or 'goal' (positions relative to the
+    skill's goal, where a successful run ends; a recalled neighbour's offset from its own
+    goal carries over to the query's). Table 5.1 for both: docs/results.md."""
     classifier_hidden: tuple[int, ...] = (50, 10)
     """Hidden widths of the success classifier (thesis: 50, 10)."""
     classifier_lr: float = 1e-3
@@ -304,11 +295,9 @@ class SearchConfig:
     """Skills the search may use: SL1 = transit, grasp, transfer; SL2 = grasp, transfer;
     SL3 = transit, transfer (thesis Fig. 6.4)."""
     library_dir: str = "experiments/skill_library"
-    """Where the built library is (`make skills` writes it there; the thesis preset's,
-    anchored at the start state, is experiments/skill_library_thesis)."""
+    """Where the built library is (`make skills`; the thesis preset's: ..._thesis)."""
     explorer: Literal["search", "scripted"] = "search"
-    """What drives the exploring steps: the look-ahead search over the library, or the
-    task's scripted controller (an oracle: the upper bound the search is compared with)."""
+    """What drives the exploring steps: the search, or the scripted controller (an oracle)."""
     branching: int = 5
     """(skill, goal) pairs sampled at every node (thesis: 5)."""
     height: int = 3
@@ -318,9 +307,8 @@ class SearchConfig:
     lookahead_next: Literal["model", "memory"] = "model"
     """Next state of an edge: the coarse dynamics model or memory retrieval."""
     leaf_state: Literal["predicted", "goal"] = "predicted"
-    """The last level's states, which only feed the leaf value: predicted like every other
-    level (`lookahead_next`), or 'goal': each edge's skill ends exactly at its goal (no
-    network; skips the coarse model on 125 of the 155 edges: docs/methods.md)."""
+    """The last level's states (they only feed the leaf value): predicted (`lookahead_next`),
+    or 'goal': each edge's skill ends at its goal (no coarse model on the last level)."""
     leaf_value: Literal["distance", "reward"] = "distance"
     """Value of a path's last state: minus its distance to the task goal in units of the
     task's success threshold (the original code) or the task's sparse reward (the text)."""
@@ -333,13 +321,11 @@ class SearchConfig:
     transfer_goal_noise: float = 0.03
     """Transfer goals are sampled within +- this (m) of the task goal."""
     waypoint_share: float = 0.3
-    """Share of transfer goals sampled anywhere in the transfer skill's goal box instead of
-    near the task goal: waypoints, so that a path may go round an obstacle (0: the thesis;
-    default 0.3 with the stall memory, chosen by measurement: docs/results.md)."""
+    """Share of transfer goals sampled anywhere in the transfer skill's goal box (waypoints
+    round an obstacle; 0: the thesis; 0.3 measured best with the stall memory)."""
     stall_memory: int = 8
-    """Obstacles each env remembers within an episode where a transit or transfer stalled;
-    the search prunes moving edges whose path passes near one (0: off, the thesis; default
-    8, chosen by measurement: docs/results.md). See `mjx_skills/skills/stalls.py`."""
+    """Obstacles each env remembers in an episode where a transit or transfer stalled; the
+    search prunes edges passing near one (0: the thesis; 8 measured best; skills/stalls.py)."""
     stall_step: float = 0.003
     """A running transit/transfer whose gripper moved less than this (m) in one step, short
     of its goal, has stalled: it ends, and the obstacle is remembered ..."""
@@ -348,9 +334,8 @@ class SearchConfig:
     stall_radius: float = 0.03
     """... and prunes edges whose straight path passes within this (m) of it."""
     search_chunk: float = 0.25
-    """Envs searched at once, as a share of all envs of all seeds (rounded up, at least one):
-    the deciding envs are searched in chunks of this size, one after another, so a step costs
-    the search of the envs that search (benchmarks/epoch_cost.py); 1.0: all at once."""
+    """Envs searched at once, as a share of all envs of all seeds (at least one): deciding
+    envs are searched in chunks of this size, so a step costs only their search; 1: all."""
     skill_steps: int = 10
     """w: a searched skill runs until it terminates or for this many steps (thesis: 10)."""
     eps_start: float = 1.0
@@ -385,16 +370,14 @@ class PASConfig:
     library: Library = "SL1"
     """Skills the meta-controller chooses from (as for DDPG+HER+SL)."""
     library_dir: str = "experiments/skill_library"
-    """Where the built library is (`make skills` writes it there; the thesis preset's,
-    anchored at the start state, is experiments/skill_library_thesis)."""
+    """Where the built library is (`make skills`; the thesis preset's: ..._thesis)."""
     hindsight: bool = False
     """Relabel meta transitions with the achieved goal at the end of a later meta step of
     the same episode (MPAS, approach 1); off: the task's own goal only (PAS, baseline 2)."""
     relabel_prob: float = 0.8
     """Share of sampled meta transitions relabelled when `hindsight` is on."""
     skill_steps: int = 20
-    """A chosen skill runs until it reaches its goal or for this many env steps (the skills'
-    own training horizon), then the meta-controller chooses again."""
+    """A chosen skill runs until it reaches its goal or for this many env steps."""
     drop_distance: float = 0.04
     """Transfer also stops once the cube is this far (m) from the gripper: dropped."""
     critic: Literal["joint", "per_skill"] = "per_skill"
@@ -403,11 +386,9 @@ class PASConfig:
     bounded by inverting gradients (the thesis, after Hausknecht & Stone; `--preset thesis`,
     compared in docs/results.md)."""
     terminal_at_goal: bool = True
-    """A meta transition that reaches the goal ends the meta-level return (no bootstrap):
-    reaching g is worth 0 at once, not through a chain of "stay" meta steps (thesis: silent)."""
+    """A meta transition that reaches the goal ends the meta-level return (thesis: silent)."""
     updates_per_cycle: int = 40
-    """Gradient steps of the meta-controller per cycle: a cycle holds tens of meta transitions,
-    not DDPG+HER's 200, so the HER code's 40 per cycle instead of the trainer's 100."""
+    """Meta-controller gradient steps per cycle (the HER code's 40: tens of meta transitions)."""
 
     def __post_init__(self) -> None:
         check_numbers(self)

@@ -235,18 +235,15 @@ def figure(r: Results, experiment: str, out: Path, draw: bool = True) -> Path | 
                 (c, s, "oracle explorer", True) for c, s in r.cells["oracle"] if c.task == task
             ]
         if experiment == two_cubes.EXPERIMENT:  # DDPG+HER+SL+Fast and its variants, dashed
-            pairs += [(c, s, two_cubes.VARIANTS.get(e, ""), True)
-                      for e in two_cubes.EXPERIMENTS[1:] for c, s in r.cells[e] if c.task == task]  # fmt: skip
-        tags = list(dict.fromkeys(tag for *_, tag, _ in pairs if tag))
+            pairs += two_cubes.dashed(r, task)
         for cell, s, tag, dashed in pairs:
             if s is None:
                 continue
             label = LABEL[cell.method] + (f" {cell.library}" if experiment == "fig6_4" else "")
             label += f" ({tag})" if tag else ""
             index = (libraries.index(cell.library) if experiment == "fig6_4"
+                     else len(LABEL) + two_cubes.colour(tag) if experiment == two_cubes.EXPERIMENT and tag
                      else list(LABEL).index(cell.method))  # fmt: skip
-            if experiment == two_cubes.EXPERIMENT and tag:  # each variant its own colour
-                index = len(LABEL) + tags.index(tag)
             x = np.arange(1, s.epochs + 1)
             ax.plot(x, s.curve, label=label, lw=1.4, color=f"C{index}",
                     ls="--" if dashed else "-")  # fmt: skip
@@ -335,9 +332,7 @@ def render(r: Results, draw: bool = True) -> str:
                           "", *table(faster.HEADER, faster.faster(r)), "",
                           "Each ingredient removed in turn: the first default's on pick_move (`experiments/fast_no_*.toml`) and its pick also on container_wall (`experiments/fast_wall_no_pick.toml`), against the first default (`experiments/fast_first.toml`, `fast_wall_first.toml`); today's eps floor on container_wall (`experiments/fast_wall_no_floor.toml`), against today's default:",
                           "", *table(faster.ABLATION_HEADER, faster.ablation_rows(r)), "",
-                          "Candidates for pick_move's target, each added to today's default in turn (`experiments/fast_u800.toml`, `fast_held.toml`, `fast_quiet.toml`):",
-                          "", *table(["task", "added", *faster.ABLATION_HEADER[2:]],
-                                     faster.ablation_rows(r, faster.ADDITION_CELLS, ("today's default", "the addition")))]  # fmt: skip
+                          faster.ADDITIONS, "", *table(["task", "added", *faster.ABLATION_HEADER[2:]], faster.addition_rows(r))]  # fmt: skip
         elif experiment == two_cubes.EXPERIMENT:
             lines += [two_cubes.INTRO, "", *table(two_cubes.HEADER, two_cubes.rows(r)), "",
                       *two_cubes.verdict(r)]  # fmt: skip

@@ -31,6 +31,10 @@ ADDITION_CELLS = (
 )
 """(experiment, task, today's default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against today's default over the same epochs."""
+ADDITIONS = (
+    "Candidates for pick_move's target, each added to today's default in turn "
+    "(`experiments/fast_u800.toml`, `fast_held.toml`, `fast_quiet.toml`):"
+)
 DEFAULTS = {"fast": "today's default", "fast_wall": "today's default",
             "fast_first": f"the first default ({FIRST})",
             "fast_wall_first": f"the first default ({FIRST})"}  # fmt: skip
@@ -130,3 +134,8 @@ def _cells(r, cell, s, verdict: str | None) -> list[str]:
 ABLATION_HEADER = ["task", "removed", "seeds x epochs", "last 5 epochs [95 % CI]",
                    "lowest seed, its last 10", "0.9 at epoch", "mean over epochs [95 % CI]",
                    "faster"]  # fmt: skip
+
+
+def addition_rows(r) -> list[list[str]]:
+    """`ablation_rows` of the candidates (`ADDITION_CELLS`) against today's default."""
+    return ablation_rows(r, ADDITION_CELLS, ("today's default", "the addition"))

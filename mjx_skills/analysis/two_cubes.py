@@ -77,6 +77,18 @@ def _row(r, cell, s, name: str) -> list[str]:
             ci(cubes(r, cell).last), f"{explored(r, cell):.2f}", f"{s.wall_s / 60:.0f}"]  # fmt: skip
 
 
+def dashed(r, task: str) -> list[tuple]:
+    """The figure's dashed curves on `task`: (cell, summary, variant, True) of every cell of
+    DDPG+HER+SL+Fast's experiments (each variant gets its own colour)."""
+    return [(c, s, VARIANTS.get(e, ""), True)
+            for e in EXPERIMENTS[1:] for c, s in r.cells[e] if c.task == task]  # fmt: skip
+
+
+def colour(variant: str) -> int:
+    """A variant's colour, after the methods': the first experiment holding it (`VARIANTS`)."""
+    return list(VARIANTS.values()).index(variant)
+
+
 def _runs(r, task: str, methods) -> list[tuple[str, str, object]]:
     """(method, name, Summary) of every cell run of `methods` on `task` in `EXPERIMENTS`."""
     out = []
