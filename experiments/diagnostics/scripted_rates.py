@@ -30,14 +30,12 @@ BEGIN = (
 END = "<!-- scripted: end -->"
 
 
-def measure(name: str) -> float:
-    """Scripted success of env `name` over EPISODES episodes from PRNGKey(SEED)."""
+def measure(env) -> float:
+    """Scripted success of `env` over EPISODES episodes from PRNGKey(SEED)."""
     import jax
 
-    from mjx_skills.envs import make
     from mjx_skills.envs.controllers import rollout_scripted
 
-    env = make(name, physics="native")
     final, _ = jax.jit(lambda k: rollout_scripted(env, k, EPISODES))(jax.random.PRNGKey(SEED))
     return float(final.metrics["success"].mean())
 
@@ -74,11 +72,12 @@ def main() -> None:
     p.add_argument("--write", action="store_true", help="replace the section in the page")
     args = p.parse_args()
     if args.measure:
-        from mjx_skills.envs import ENVS
+        from mjx_skills.envs import ENVS, make
         from mjx_skills.skills.library import provenance
 
         made_by = provenance()
-        rows = [{"env": name, "episodes": EPISODES, "seed": SEED, "success": measure(name),
+        rows = [{"env": name, "episodes": EPISODES, "seed": SEED,
+                 "success": measure(make(name, physics="native")),
                  "commit": made_by["commit"], "scenes": made_by["scenes"]} for name in ENVS]  # fmt: skip
         RESULTS.write_text("".join(json.dumps(row) + "\n" for row in rows))
         print(f"wrote {RESULTS}")

@@ -31,10 +31,8 @@ ADDITION_CELLS = (
 )
 """(experiment, task, today's default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against today's default over the same epochs."""
-ADDITIONS = (
-    "Candidates for pick_move's target, each added to today's default in turn "
-    "(`experiments/fast_u800.toml`, `fast_held.toml`, `fast_quiet.toml`):"
-)
+ADDITIONS = ("Candidates for pick_move's target, each added to today's default in turn "
+             f"(`experiments/{'.toml`, `'.join(row[0] for row in ADDITION_CELLS)}.toml`):")  # fmt: skip
 DEFAULTS = {"fast": "today's default", "fast_wall": "today's default",
             "fast_first": f"the first default ({FIRST})",
             "fast_wall_first": f"the first default ({FIRST})"}  # fmt: skip
