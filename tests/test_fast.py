@@ -4,6 +4,7 @@ library's proposals (`methods/ddpg_her_sl_fast.py`)."""
 from __future__ import annotations
 
 import dataclasses
+import types
 
 import jax
 import jax.numpy as jnp
@@ -11,13 +12,14 @@ import numpy as np
 import pytest
 
 from mjx_skills.agents import ddpg
-from mjx_skills.config import DDPGConfig, SearchConfig
+from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.envs import make
 from mjx_skills.methods import ddpg_her_sl_fast as fast
 from tests.test_search import NAMES, KnownLibrary, states
 
 CONFIG = DDPGConfig(hidden=(16,))
 ONE_CUBE = make("pick_move")
+STATE = types.SimpleNamespace(obs=jnp.zeros((2, 25)), desired_goal=jnp.zeros((2, 3)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,3 +57,23 @@ def test_the_critic_picks_the_best_candidate_and_ties_go_to_the_actor(monkeypatc
         action, taken = fast.pick(agent, lib, SearchConfig(), obs, goal, key, 5, CONFIG, ONE_CUBE)
         np.testing.assert_allclose(action, target, atol=1e-6)
         assert bool(jnp.all(taken == from_library))
+
+
+@pytest.mark.parametrize("in_training", [True, False])
+def test_the_pick_acts_in_training_only_where_asked_and_always_in_evaluation(
+    monkeypatch, in_training
+):
+    """`--fast.pick-in-training false` leaves training to DDPG+HER+SL's behaviour (the actor
+    and its noise where the search does not drive); the evaluated policy picks either way."""
+    calls = []
+    base = fast.Learner(init=None, explore=lambda *a: "base explores", evaluate=None,
+                        store=None, update=None)  # fmt: skip
+    monkeypatch.setattr(fast, "make_ddpg_her_sl", lambda *a: base)
+    monkeypatch.setattr(fast, "make_behaviour", lambda *a, own: ("picking", own))
+    monkeypatch.setattr(fast, "pick", lambda *a: calls.append(a) or ("picked", None))
+    config = fast.FastConfig(pick_in_training=in_training)
+    learner = fast.make_ddpg_her_sl_fast(ONE_CUBE, TrainConfig(), CONFIG, SearchConfig(), config)
+    explored = learner.explore("agent", "library", 0)
+    assert (explored == "base explores") != in_training
+    _, action, _ = learner.evaluate("agent", "library").step((), jax.random.key(0), STATE)
+    assert action == "picked" and calls[-1][:2] == ("agent", "library")

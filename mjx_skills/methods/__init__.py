@@ -150,7 +150,7 @@ METHODS: dict[str, Method] = {
         options={"ddpg": FAST_DDPG, "search": FAST_SEARCH, "fast": FastConfig()},
         make_learner=make_ddpg_her_sl_fast,
         unread={"train.updates_per_cycle": "--fast.updates-per-cycle"},
-        unread_unless={"fast.proposals": "pick"},
+        unread_unless={"fast.proposals": "pick", "fast.pick_in_training": "pick"},
     ),
     **{
         name: Method(

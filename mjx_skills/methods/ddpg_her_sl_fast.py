@@ -63,6 +63,9 @@ class FastConfig:
     method does not read)."""
     pick: bool = True
     """The critic picks the learner's actions among the library's proposals (`pick`)."""
+    pick_in_training: bool = True
+    """The pick also acts in training (False: only the evaluated policy picks; the learner
+    explores with its actor and DDPG's noise, so the replay holds the actor's own actions)."""
     proposals: int = 8
     """(skill, goal) edges drawn per step; each proposes its skill policy's action."""
 
@@ -145,8 +148,8 @@ def make_ddpg_her_sl_fast(
         return lambda key, obs, goal: pick(agent, lib, search, obs, goal, key, n, ddpg, env)[0]
 
     def explore(agent, lib, epoch):
-        if search.explorer == "scripted":  # the oracle explores; the pick acts in evaluation
-            return base.explore(agent, lib, epoch)
+        if search.explorer == "scripted" or not fast.pick_in_training:
+            return base.explore(agent, lib, epoch)  # the pick acts in evaluation only
         own = _noisy(chosen(agent, lib), ddpg)
         return make_behaviour(agent, lib, epoch, env, search, ddpg, own=own)
 
