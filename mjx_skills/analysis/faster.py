@@ -28,10 +28,14 @@ ADDITION_CELLS = (
     ("fast_u800", "pick_move", "fast", "more updates (800 per cycle instead of 400)"),
     ("fast_held", "pick_move", "fast", "held starts (half the training starts with the cube held)"),
     ("fast_quiet", "pick_move", "fast", "no random actions (random_eps 0 instead of 0.2)"),
+    ("fast_eval_pick", "pick_move", "fast", "the pick in evaluation only (the actor acts in training)"),
+    ("fast_eval_pick_first", "pick_move", "fast_first",
+     "the pick in evaluation only (the actor acts in training)"),
 )
-"""(experiment, task, today's default's experiment, what is added or changed): candidates for
-pick_move's target, each measured against today's default over the same epochs."""
-ADDITIONS = ("Candidates for pick_move's target, each added to today's default in turn "
+"""(experiment, task, the default's experiment, what is added or changed): candidates for
+pick_move's target, each measured against the default it is added to, over the same epochs."""
+ADDITIONS = ("Candidates for pick_move's target, each added in turn to the default named in "
+             "the nearest '(none: ...)' row above it "
              f"(`experiments/{'.toml`, `'.join(row[0] for row in ADDITION_CELLS)}.toml`):")  # fmt: skip
 DEFAULTS = {"fast": "today's default", "fast_wall": "today's default",
             "fast_first": f"the first default ({FIRST})",
