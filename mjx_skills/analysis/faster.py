@@ -92,12 +92,11 @@ def faster(r) -> list[str]:
     for task, by in TARGETS:
         fast = r.get("fast", task, "ddpg_her_sl_fast")
         met = "" if fast is None else "yes" if fast.reach_90 and fast.reach_90 <= by else "no"
-        one = task == "pick_move"  # the oracle and the candidate ran on pick_move only
-        oracle = _reach(r, "oracle", task, "ddpg_her_sl") if one else "-"
-        eval_pick = _reach(r, "fast_eval_pick_first", task) if one else "-"
+        oracle = _reach(r, "oracle", task, "ddpg_her_sl") if task == "pick_move" else "-"
         rows.append([task, f"0.9 (rolling mean) by epoch {by}",
                      _reach(r, "fig6_3", task, "ddpg_her_sl"), oracle,
-                     _reach(r, "fast_first", task), eval_pick, _reach(r, "fast", task), met])  # fmt: skip
+                     _reach(r, "fast_first", task), _reach(r, "fast_eval_pick_first", task),
+                     _reach(r, "fast", task), met])  # fmt: skip
     task, level, floor = WALL
     sl = r.get("fig6_5", task, "ddpg_her_sl")
     first, _ = _wall(r, "fast_wall_first")
