@@ -25,10 +25,9 @@ ABLATION_CELLS = (*((f"fast_no_{x}", "pick_move", "fast_first", why) for x, why 
 ablations on pick_move and its pick's also on container_wall (where seeds can stay stuck);
 today's floor on container_wall, where it is what keeps seeds from staying stuck."""
 EVAL_PICK = "the pick in evaluation only (the actor acts in training)"
-LOW_FLOOR = "eps over 10 epochs to a floor of 0.03"
+LOW_FLOOR = f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.03"
 CANDIDATES = (("fast_eval_pick_first", "fast_wall_eval_pick_first", f"the first default, {EVAL_PICK}"),
-              ("fast_eval_pick_low_floor", "fast_wall_eval_pick_low_floor",
-               f"{EVAL_PICK}, {LOW_FLOOR}"))  # fmt: skip
+              ("fast_eval_pick_low_floor", "fast_wall_eval_pick_low_floor", LOW_FLOOR))  # fmt: skip
 """Candidate configurations in the targets table: (experiment on the one-cube targets,
 experiment on container_wall, what it is)."""
 ADDITION_CELLS = (
@@ -38,8 +37,8 @@ ADDITION_CELLS = (
     ("fast_eval_pick", "pick_move", "fast", EVAL_PICK),
     ("fast_eval_pick_first", "pick_move", "fast_first", EVAL_PICK),
     ("fast_wall_eval_pick_first", "container_wall", "fast_wall_first", EVAL_PICK),
-    ("fast_eval_pick_low_floor", "pick_move", "fast", f"{EVAL_PICK}, {LOW_FLOOR}"),
-    ("fast_wall_eval_pick_low_floor", "container_wall", "fast_wall", f"{EVAL_PICK}, {LOW_FLOOR}"),
+    ("fast_eval_pick_low_floor", "pick_move", "fast", LOW_FLOOR),
+    ("fast_wall_eval_pick_low_floor", "container_wall", "fast_wall", LOW_FLOOR),
 )
 """(experiment, task, the default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against the default it is added to, over the same epochs;
@@ -130,7 +129,8 @@ def ablation_rows(r, cells=ABLATION_CELLS, names=("the full method", "the ablati
     """One row per ablation (`ABLATION_CELLS`; or per addition, `ADDITION_CELLS`): what it
     reaches, and which is faster (whose interval of the mean over epochs lies entirely above
     the other's, over the ablation's epochs); before them, the full method's row over each
-    budget they use."""
+    budget they use. `names`: what the verdict calls the full method and the row (None: the
+    default the row's experiment is measured against, `DEFAULTS`)."""
     rows, shown = [], set()
     for experiment, task, base, why in cells:
         full_cell, full = r.find(base, task, "ddpg_her_sl_fast")
@@ -140,7 +140,7 @@ def ablation_rows(r, cells=ABLATION_CELLS, names=("the full method", "the ablati
         if full is not None and (base, task, full.epochs) not in shown:
             shown.add((base, task, full.epochs))
             rows.append([task, f"(none: {DEFAULTS[base]})", *_cells(r, full_cell, full, None)])
-        verdict = compare(full, s, "auc", names)
+        verdict = compare(full, s, "auc", (names[0] or DEFAULTS[base], names[1]))
         rows.append([task, why, *_cells(r, cell, s, verdict)])
     return rows
 
@@ -159,5 +159,6 @@ ABLATION_HEADER = ["task", "removed", "seeds x epochs", "last 5 epochs [95 % CI]
 
 
 def addition_rows(r) -> list[list[str]]:
-    """`ablation_rows` of the candidates (`ADDITION_CELLS`) against today's default."""
-    return ablation_rows(r, ADDITION_CELLS, ("today's default", "the addition"))
+    """`ablation_rows` of the candidates (`ADDITION_CELLS`), each against the default it is
+    added to."""
+    return ablation_rows(r, ADDITION_CELLS, (None, "the addition"))
