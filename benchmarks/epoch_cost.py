@@ -47,6 +47,7 @@ import jax.numpy as jnp  # noqa: E402
 from mjx_skills import methods
 from mjx_skills.config import EnvConfig, SearchConfig, TrainConfig  # noqa: E402
 from mjx_skills.core import rollout
+from mjx_skills.core.learner import Progress
 from mjx_skills.core.workers import usable_cores  # noqa: E402
 from mjx_skills.training.epoch import build, make_evaluate, make_train_cycles, over_seeds  # noqa: E402
 
@@ -138,7 +139,7 @@ def pieces(learner, env, cfg: TrainConfig, carry, aux, epoch_s: float) -> dict:
 
     def explore(c, aux):
         def one(c, k):
-            behaviour = learner.explore(c.agent, aux, c.epoch)
+            behaviour = learner.explore(c.agent, aux, Progress(c.epoch, c.success))
             return c, rollout.run_episodes(env, behaviour, k, n_train)[1].metrics["success"]
 
         return jax.lax.scan(one, c, jax.random.split(c.key, cfg.cycles))[1]

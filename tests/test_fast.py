@@ -13,6 +13,7 @@ import pytest
 
 from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
+from mjx_skills.core.learner import Progress
 from mjx_skills.envs import make
 from mjx_skills.methods import ddpg_her_sl_fast as fast
 from tests.test_search import NAMES, KnownLibrary, states
@@ -69,11 +70,13 @@ def test_the_pick_acts_in_training_only_where_asked_and_always_in_evaluation(
     base = fast.Learner(init=None, explore=lambda *a: "base explores", evaluate=None,
                         store=None, update=None)  # fmt: skip
     monkeypatch.setattr(fast, "make_ddpg_her_sl", lambda *a: base)
-    monkeypatch.setattr(fast, "make_behaviour", lambda *a, own: ("picking", own))
+    monkeypatch.setattr(fast, "make_behaviour", lambda *a, own, success: ("picking", own))
     monkeypatch.setattr(fast, "pick", lambda *a: calls.append(a) or ("picked", None))
     config = fast.FastConfig(pick_in_training=in_training)
     learner = fast.make_ddpg_her_sl_fast(ONE_CUBE, TrainConfig(), CONFIG, SearchConfig(), config)
-    explored = learner.explore("agent", "library", 0)
+    explored = learner.explore(
+        "agent", "library", Progress(jnp.zeros((), jnp.int32), jnp.zeros(()))
+    )
     assert (explored == "base explores") != in_training
     _, action, _ = learner.evaluate("agent", "library").step((), jax.random.key(0), STATE)
     assert action == "picked" and calls[-1][:2] == ("agent", "library")

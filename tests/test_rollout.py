@@ -14,7 +14,7 @@ from flax import struct
 
 from mjx_skills.config import DDPGConfig, TrainConfig
 from mjx_skills.core.learner import Learner
-from mjx_skills.core.rollout import Behaviour, Episode, example_episode, run_episodes
+from mjx_skills.core.rollout import Behaviour, Episode, example_episode, run_episodes, stateless
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.training import epoch
 
@@ -114,3 +114,35 @@ def test_trainer_counts_steps_episodes_and_skill_calls():
         # The behaviour's other records are logged as shares: 4 of 7 steps are committed.
         np.testing.assert_allclose(metrics["explore_committed"], 4 / 7, rtol=1e-6)
     assert int(carry.replay.size[0]) == 2 * cfg.envs * cfg.cycles
+
+
+def test_explore_reads_the_previous_epochs_evaluated_success():
+    """`Progress.success`, what an explorer may drive eps with (`--search.eps-floor-by-success`),
+    is each seed's eval success of the epoch before (0 in the first), and the epoch is its own."""
+    env = PointEnv()
+    cfg = TrainConfig(task="point", envs=2, cycles=2, updates_per_cycle=1, eval_episodes=16,
+                      replay_capacity=300, seeds=3, progress=False)  # fmt: skip
+    base = make_ddpg_her(env, cfg, DDPGConfig(hidden=(8,)))
+
+    def explore(agent, aux, progress):
+        def step(pstate, key, state):
+            n = state.obs.shape[0]
+            seen = {"seen_success": progress.success, "seen_epoch": progress.epoch}
+            return pstate, jnp.zeros((n, 2)), jax.tree.map(lambda x: jnp.full((n,), x), seen)
+
+        return Behaviour(init=lambda key, n: (), step=step)
+
+    # Straight at the goal: succeeds where the goal lies within reach, a share of the episodes.
+    towards = stateless(lambda key, obs, goal: jnp.clip((goal - obs) / 0.1, -1.0, 1.0))
+    learner = base._replace(explore=explore, evaluate=lambda agent, aux: towards)
+    run_epoch = jax.jit(jax.vmap(epoch.make_train_epoch(learner, env, cfg), in_axes=(0, None)))
+    carry = jax.jit(jax.vmap(lambda k: epoch.init_carry(learner, env, cfg, k)))(
+        epoch.seed_keys(cfg)
+    )
+    before = np.zeros(cfg.seeds)
+    for n in range(3):
+        carry, metrics = run_epoch(carry, None)
+        np.testing.assert_allclose(metrics["explore_seen_success"], before, atol=1e-6)
+        np.testing.assert_array_equal(metrics["explore_seen_epoch"], n)
+        before = np.asarray(metrics["eval_success"])
+        assert before.max() > 0.0 and np.ptp(before) > 0.0  # seeds differ: each reads its own

@@ -261,6 +261,19 @@ def test_epsilon_decays_linearly():
     )
 
 
+def test_the_floor_by_success_falls_as_the_evaluated_success_rises():
+    fixed = SearchConfig(eps_end=0.1, eps_decay_epochs=10)
+    by_success = dataclasses.replace(fixed, eps_floor_by_success=True)
+    success = jnp.array([0.0, 0.5, 0.9, 1.0])
+    # Past the decay: the floor, times 1 - success; a fixed floor ignores the success.
+    np.testing.assert_allclose(ddpg_her_sl.epsilon(by_success, 12, success), [0.1, 0.05, 0.01, 0.0],
+                               atol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(ddpg_her_sl.epsilon(fixed, 12, success), 0.1, atol=1e-6)
+    # During the decay it heads for that floor: halfway at epoch 5.
+    np.testing.assert_allclose(ddpg_her_sl.epsilon(by_success, 5, 1.0), 0.5, atol=1e-6)
+    np.testing.assert_allclose(ddpg_her_sl.epsilon(by_success, 0, 1.0), 1.0, atol=1e-6)
+
+
 def test_a_solved_task_holds_still(env):
     from mjx_skills.agents import ddpg
 

@@ -7,6 +7,7 @@ from typing import Any, Generic, NamedTuple, TypeVar
 
 import jax
 import jax.numpy as jnp
+from flax import struct
 
 from mjx_skills.core import rollout
 from mjx_skills.core.replay import ReplayState
@@ -17,9 +18,20 @@ AuxT = TypeVar("AuxT")
 """The read-only input of the jitted epoch: the skill library, or None."""
 
 
+@struct.dataclass
+class Progress:
+    """Where a seed's training stands, as the exploring behaviour may read it."""
+
+    epoch: jax.Array
+    """() int32, 0-based: the epoch being trained."""
+    success: jax.Array
+    """() float32: the evaluated policy's success at the end of the previous epoch (0 before
+    the first)."""
+
+
 class Learner(NamedTuple, Generic[AgentT, AuxT]):
     """init(key) -> agent
-    explore(agent, aux, epoch) -> Behaviour     training behaviour (epoch: () int32, 0-based)
+    explore(agent, aux, progress) -> Behaviour  training behaviour (`Progress`)
     evaluate(agent, aux) -> Behaviour           deterministic evaluation behaviour
     store(episodes, records) -> item            what the replay keeps per episode (batched)
     update(agent, buffer, fresh, key) -> (agent, losses)
@@ -29,7 +41,7 @@ class Learner(NamedTuple, Generic[AgentT, AuxT]):
         cycle -> scalars logged as explore_*; default: the mean of each record."""
 
     init: Callable[[jax.Array], AgentT]
-    explore: Callable[[AgentT, AuxT, jax.Array], rollout.Behaviour]
+    explore: Callable[[AgentT, AuxT, Progress], rollout.Behaviour]
     evaluate: Callable[[AgentT, AuxT], rollout.Behaviour]
     store: Callable[[rollout.Episode, dict], Any]
     update: Callable[[AgentT, ReplayState, Any, jax.Array], tuple[AgentT, dict[str, jax.Array]]]

@@ -21,7 +21,7 @@ def make_ddpg_her(env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig) -> Learner
     def init(key: jax.Array) -> ddpg_agent.DDPGState:
         return ddpg_agent.init(key, env.obs_dim, env.goal_dim, env.action_dim, ddpg)
 
-    def explore(agent, aux, epoch) -> rollout.Behaviour:
+    def explore(agent, aux, progress) -> rollout.Behaviour:
         return rollout.stateless(lambda k, obs, goal: ddpg_agent.explore(agent, k, obs, goal, ddpg))
 
     def evaluate(agent, aux) -> rollout.Behaviour:

@@ -23,7 +23,7 @@ from mjx_skills.agents import ddpg
 from mjx_skills.agents.ddpg import DDPGState
 from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.core import rollout
-from mjx_skills.core.learner import Learner
+from mjx_skills.core.learner import Learner, Progress
 from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.two_objects import finish_first, object_views
 from mjx_skills.methods.ddpg_her import make_ddpg_her
@@ -45,10 +45,13 @@ class ExploreState:
     """(B,) int32 the cube the running skill acts on (0 in a one-cube scene)."""
 
 
-def epsilon(cfg: SearchConfig, epoch: jax.Array) -> jax.Array:
-    """Linear decay from eps_start at epoch 0 to eps_end at eps_decay_epochs."""
+def epsilon(cfg: SearchConfig, epoch: jax.Array, success: jax.Array | float = 0.0) -> jax.Array:
+    """Linear decay from eps_start at epoch 0 to the floor at eps_decay_epochs: eps_end, or
+    with `eps_floor_by_success` eps_end x (1 - success), `success` the evaluated policy's
+    in the previous epoch (`Progress.success`, in [0, 1])."""
     frac = jnp.clip(epoch / cfg.eps_decay_epochs, 0.0, 1.0)
-    return cfg.eps_start + frac * (cfg.eps_end - cfg.eps_start)
+    floor = cfg.eps_end * (1.0 - success) if cfg.eps_floor_by_success else cfg.eps_end
+    return cfg.eps_start + frac * (floor - cfg.eps_start)
 
 
 def make_behaviour(
@@ -59,9 +62,11 @@ def make_behaviour(
     cfg: SearchConfig,
     ddpg_config: DDPGConfig,
     own: Callable[[jax.Array, jax.Array, jax.Array], jax.Array] | None = None,
+    success: jax.Array | float = 0.0,
 ) -> rollout.Behaviour:
     """`own(key, obs, goal) -> (B, A)`: the learner's exploring action where no skill
-    drives (default: the actor plus DDPG's noise, `ddpg.explore`).
+    drives (default: the actor plus DDPG's noise, `ddpg.explore`). `epoch`, `success`: as
+    `Progress`'s, for eps (`epsilon`).
 
     In a scene of n > 1 cubes every skill acts on one cube k through the scene's projection
     onto (gripper, cube k) (`object_views`), the library used as it is: the search plans
@@ -73,7 +78,7 @@ def make_behaviour(
     dropped the first: no episode of its 100 epochs on pick_move_two put both cubes at
     their goals). Transfer is allowed only on a view whose cube is held
     (`SkillLibrary.allowed`), so it only ever moves the held cube."""
-    eps = epsilon(cfg, epoch)
+    eps = epsilon(cfg, epoch, success)
     n = env.n_objects
     scored = env.cube_view if n > 1 else env  # what a search scores one cube's states with
     if own is None:
@@ -163,13 +168,14 @@ def make_scripted_behaviour(
     env: GoalEnv,
     cfg: SearchConfig,
     ddpg_config: DDPGConfig,
+    success: jax.Array | float = 0.0,
 ) -> rollout.Behaviour:
     """The oracle explorer: the scripted controller's action with probability eps per step,
     else the learned policy plus noise."""
     from mjx_skills.envs.controllers import make_scripted_policy
 
     scripted = jax.vmap(make_scripted_policy(env))
-    eps = epsilon(cfg, epoch)
+    eps = epsilon(cfg, epoch, success)
 
     def policy(key, obs, goal):
         k_coin, k_noise = jax.random.split(key)
@@ -187,9 +193,10 @@ def make_ddpg_her_sl(
     parameters are named after the method's option groups, `--ddpg.*` and `--search.*`.)"""
     base = make_ddpg_her(env, train, ddpg)
 
-    def explore(agent, lib, epoch):
+    def explore(agent, lib, progress: Progress):
+        epoch, success = progress.epoch, progress.success
         if search.explorer == "scripted":
-            return make_scripted_behaviour(agent, epoch, env, search, ddpg)
-        return make_behaviour(agent, lib, epoch, env, search, ddpg)
+            return make_scripted_behaviour(agent, epoch, env, search, ddpg, success)
+        return make_behaviour(agent, lib, epoch, env, search, ddpg, success=success)
 
     return base._replace(explore=explore)

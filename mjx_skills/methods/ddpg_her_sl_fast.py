@@ -147,11 +147,12 @@ def make_ddpg_her_sl_fast(
     def chosen(agent, lib):
         return lambda key, obs, goal: pick(agent, lib, search, obs, goal, key, n, ddpg, env)[0]
 
-    def explore(agent, lib, epoch):
+    def explore(agent, lib, progress):
         if search.explorer == "scripted" or not fast.pick_in_training:
-            return base.explore(agent, lib, epoch)  # the pick acts in evaluation only
+            return base.explore(agent, lib, progress)  # the pick acts in evaluation only
         own = _noisy(chosen(agent, lib), ddpg)
-        return make_behaviour(agent, lib, epoch, env, search, ddpg, own=own)
+        return make_behaviour(agent, lib, progress.epoch, env, search, ddpg, own=own,
+                              success=progress.success)  # fmt: skip
 
     def evaluate(agent, lib):
         return rollout.stateless(chosen(agent, lib))

@@ -268,7 +268,7 @@ def make_pas(
 
     return Learner(
         init=init,
-        explore=lambda agent, lib, epoch: make_behaviour(agent, lib, env, pas, ddpg, noisy=True),
+        explore=lambda agent, lib, progress: make_behaviour(agent, lib, env, pas, ddpg, noisy=True),
         evaluate=lambda agent, lib: make_behaviour(agent, lib, env, pas, ddpg, noisy=False),
         store=store,
         update=update,

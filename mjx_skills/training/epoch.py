@@ -22,7 +22,7 @@ from flax import struct
 from mjx_skills import methods
 from mjx_skills.config import EnvConfig, TrainConfig
 from mjx_skills.core import replay, rollout
-from mjx_skills.core.learner import Learner, mean_records
+from mjx_skills.core.learner import Learner, Progress, mean_records
 from mjx_skills.core.types import GoalEnv
 
 
@@ -48,6 +48,8 @@ class TrainCarry:
     key: jax.Array
     epoch: jax.Array
     counters: Counters
+    success: jax.Array
+    """() float32: eval success at the end of the previous epoch (`Progress.success`)."""
 
 
 def make_evaluate(learner: Learner, env: GoalEnv, train: TrainConfig):
@@ -78,7 +80,7 @@ def make_train_cycles(learner: Learner, env: GoalEnv, train: TrainConfig):
 
     def cycle(aux, carry: TrainCarry, _):
         key, k_roll, k_upd = jax.random.split(carry.key, 3)
-        behaviour = learner.explore(carry.agent, aux, carry.epoch)
+        behaviour = learner.explore(carry.agent, aux, Progress(carry.epoch, carry.success))
         episodes, final, records = rollout.run_episodes(env, behaviour, k_roll, train.envs)
         fresh = learner.store(episodes, records)
         buffer = replay.add(carry.replay, fresh)
@@ -119,14 +121,16 @@ def make_train_epoch(
         carry, metrics = train_cycles(carry, aux)
         key, k_eval = jax.random.split(carry.key)
         c = carry.counters
+        evaluated = evaluate(carry.agent, aux, k_eval)
         metrics = {
             **metrics,
-            **evaluate(carry.agent, aux, k_eval),
+            **evaluated,
             "env_steps": c.env_steps,
             "episodes": c.episodes,
             "skill_calls": c.skill_calls,
         }
-        return carry.replace(key=key, epoch=carry.epoch + 1), metrics
+        return carry.replace(key=key, epoch=carry.epoch + 1,
+                             success=evaluated["eval_success"]), metrics  # fmt: skip
 
     return train_epoch
 
@@ -139,7 +143,7 @@ def init_carry(
     agent = learner.init(k_agent)
 
     def stored_one(k):
-        behaviour = learner.explore(agent, aux, jnp.zeros((), jnp.int32))
+        behaviour = learner.explore(agent, aux, Progress(jnp.zeros((), jnp.int32), jnp.zeros(())))
         episodes, _, records = rollout.run_episodes(env, behaviour, k, 1)
         return learner.store(episodes, records)
 
@@ -147,7 +151,7 @@ def init_carry(
     example = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype), layout)
     buffer = replay.init(train.replay_capacity, example, T=env.episode_length)
     return TrainCarry(agent=agent, replay=buffer, key=k_run, epoch=jnp.zeros((), jnp.int32),
-                      counters=Counters.zeros())  # fmt: skip
+                      counters=Counters.zeros(), success=jnp.zeros(()))  # fmt: skip
 
 
 def seed_keys(train: TrainConfig) -> jax.Array:
