@@ -26,8 +26,11 @@ ablations on pick_move and its pick's also on container_wall (where seeds can st
 today's floor on container_wall, where it is what keeps seeds from staying stuck."""
 EVAL_PICK = "the pick in evaluation only (the actor acts in training)"
 LOW_FLOOR = f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.03"
+SUCCESS_FLOOR = (f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.1 x (1 - the previous "
+                 "epoch's eval success)")  # fmt: skip
 CANDIDATES = (("fast_eval_pick_first", "fast_wall_eval_pick_first", f"the first default, {EVAL_PICK}"),
-              ("fast_eval_pick_low_floor", "fast_wall_eval_pick_low_floor", LOW_FLOOR))  # fmt: skip
+              ("fast_eval_pick_low_floor", "fast_wall_eval_pick_low_floor", LOW_FLOOR),
+              ("fast_eval_pick_success_floor", "fast_wall_eval_pick_success_floor", SUCCESS_FLOOR))  # fmt: skip
 """Candidate configurations in the targets table: (experiment on the one-cube targets,
 experiment on container_wall, what it is)."""
 ADDITION_CELLS = (
@@ -39,6 +42,8 @@ ADDITION_CELLS = (
     ("fast_wall_eval_pick_first", "container_wall", "fast_wall_first", EVAL_PICK),
     ("fast_eval_pick_low_floor", "pick_move", "fast", LOW_FLOOR),
     ("fast_wall_eval_pick_low_floor", "container_wall", "fast_wall", LOW_FLOOR),
+    ("fast_eval_pick_success_floor", "pick_move", "fast", SUCCESS_FLOOR),
+    ("fast_wall_eval_pick_success_floor", "container_wall", "fast_wall", SUCCESS_FLOOR),
 )
 """(experiment, task, the default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against the default it is added to, over the same epochs;
