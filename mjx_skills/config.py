@@ -88,14 +88,15 @@ class DDPGConfig:
     relabel_prob: float = 0.8
     """Share of sampled transitions whose goal is relabelled (future k = 4 -> 0.8)."""
     n_step: int = 1
-    """Critic targets from n-step returns of the stored behaviour (`her.sample_batch`); 1:
-    one-step TD, as the thesis."""
+    """Critic targets from n-step returns (`her.sample_batch`); 1: one-step TD, the thesis's."""
+    critics: int = 1
+    """Critics side by side (2: TD3's clipped double Q); Q read anywhere is their minimum."""
 
     def __post_init__(self) -> None:
         check_numbers(self)
         _check(len(self.hidden) > 0 and all(h > 0 for h in self.hidden), "hidden",
                "need >= 1 positive width")  # fmt: skip
-        for name in ("actor_lr", "critic_lr", "batch_size", "n_step", "norm_clip"):
+        for name in ("actor_lr", "critic_lr", "batch_size", "n_step", "norm_clip", "critics"):
             _check(getattr(self, name) > 0, name, "must be > 0")
         _check(0.0 < self.gamma < 1.0, "gamma", "must lie in (0, 1)")
         _check(0.0 < self.tau <= 1.0, "tau", "must lie in (0, 1]")
@@ -127,8 +128,7 @@ class EnvConfig:
     n_substeps: int = 30
     """Substeps per env step: 0.005 s x 30 = 0.15 s, the thesis's control period."""
     solver_iterations: int = 20
-    """Constraint solver iterations (MuJoCo's default is 100; 20 converges for the weld and
-    a four-contact grasp)."""
+    """Solver iterations (MuJoCo's default: 100; 20 converge for a four-contact grasp)."""
     ls_iterations: int = 10
     """Line-search iterations of the solver."""
     action_scale: float = 0.05

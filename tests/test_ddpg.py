@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import chex
@@ -265,3 +266,49 @@ def test_the_q_filtered_bc_loss_clones_only_demonstrations_the_critic_prefers():
     assert not np.any(grad[1]) and not np.any(grad[3])
     none, zero = ddpg.q_filtered_bc_loss(pi, demo_action, jnp.zeros(4, bool), q_demo, q_pi)
     assert float(none) == 0.0 and float(zero) == 0.0
+
+
+def test_twin_critics_are_independent_heads_read_through_their_minimum():
+    """critics = 2 (TD3's clipped double Q): the ensemble's heads are two independently
+    initialised critics, each exactly the one-critic network with that head's parameters;
+    Q read (the pick's q_value) and the TD target take the smaller head, and one update
+    moves both heads."""
+    twin = dataclasses.replace(CONFIG, critics=2, clip_target=False)
+    batch = make_batch(jax.random.key(3))
+    state = ddpg.observe(ddpg.init(jax.random.key(0), OBS, GOAL, ACT, twin), batch["obs"],
+                         batch["goal"])  # fmt: skip
+
+    def head(params, i):  # head i of the ensemble, as one critic's parameters
+        return {"params": {"MLP_0": params["params"][f"MLP_{i}"]}}
+
+    qs, ys = [], []
+    plain = dataclasses.replace(CONFIG, clip_target=False)
+    for i in range(2):
+        single = state.replace(critic_params=head(state.critic_params, i),
+                               target_critic_params=head(state.target_critic_params, i))  # fmt: skip
+        qs.append(ddpg.q_value(single, batch["obs"], batch["goal"], batch["action"], plain))
+        ys.append(ddpg.td_target(single, batch, plain))
+    assert float(jnp.mean(jnp.abs(qs[0] - qs[1]))) > 1e-3  # two inits, not one copied
+    q = ddpg.q_value(state, batch["obs"], batch["goal"], batch["action"], twin)
+    np.testing.assert_allclose(q, jnp.minimum(*qs), rtol=1e-3, atol=1e-4)
+    # r + gamma min(Q1', Q2'): the smaller head's target, row by row
+    np.testing.assert_allclose(ddpg.td_target(state, batch, twin), jnp.minimum(*ys),
+                               rtol=1e-3, atol=1e-4)  # fmt: skip
+
+    new, metrics = jax.jit(functools.partial(ddpg.update, config=twin))(
+        state, jax.tree.map(lambda x: x[None], batch)
+    )
+    assert np.isfinite(float(metrics["critic_loss"][0]))
+    for i in range(2):
+        moved = jax.tree.map(lambda a, b: float(jnp.max(jnp.abs(a - b))),
+                             head(new.critic_params, i), head(state.critic_params, i))  # fmt: skip
+        assert max(jax.tree.leaves(moved)) > 0, f"head {i} did not move"
+
+
+def test_more_critics_are_refused_where_one_is_trained():
+    from mjx_skills.agents import mpdqn
+
+    with pytest.raises(ValueError, match="critics"):
+        mpdqn.init(jax.random.key(0), OBS, GOAL, 3, dataclasses.replace(CONFIG, critics=2))
+    with pytest.raises(ValueError, match="critics"):
+        DDPGConfig(critics=0)

@@ -51,7 +51,14 @@ def _actor_module(act_dim: int, bounds: str, config: DDPGConfig) -> Actor:
 
 
 def critic_module(config: DDPGConfig) -> Critic:
-    return Critic(hidden=tuple(config.hidden), layer_norm=config.layer_norm)
+    return Critic(hidden=tuple(config.hidden), layer_norm=config.layer_norm,
+                  ensemble=config.critics)  # fmt: skip
+
+
+def pessimistic(q: jax.Array, config: DDPGConfig) -> jax.Array:
+    """The critics' heads (..., critics) -> their minimum (...) (TD3's clipped double Q);
+    with one critic, q (...) itself."""
+    return q if config.critics == 1 else jnp.min(q, axis=-1)
 
 
 def actor_opt(config: DDPGConfig) -> optax.GradientTransformation:
@@ -150,7 +157,7 @@ def q_value(
 ) -> jax.Array:
     """Online critic Q: (..., obs_dim), (..., goal_dim), (..., act_dim) -> (...)."""
     o, g = normalize_inputs(state, obs, goal, config)
-    return critic_module(config).apply(state.critic_params, o, g, action)
+    return pessimistic(critic_module(config).apply(state.critic_params, o, g, action), config)
 
 
 def observe(state: DDPGState, obs: jax.Array, goal: jax.Array) -> DDPGState:
@@ -177,7 +184,7 @@ def _td_target(state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfi
     o2, g = nbatch["next_obs"], nbatch["goal"]
     a2 = _bounded(state, actor_module(state, config).apply(state.target_actor_params, o2, g))
     q2 = critic_module(config).apply(state.target_critic_params, o2, g, a2)
-    return target_from_next_value(nbatch, q2, config)
+    return target_from_next_value(nbatch, pessimistic(q2, config), config)
 
 
 def target_from_next_value(
@@ -268,8 +275,10 @@ def _step(
     y = _td_target(state, nbatch, config)
 
     def critic_loss_fn(params: Params) -> tuple[jax.Array, jax.Array]:
-        q = critic.apply(params, o, g, action)
-        return td_loss(q, y), q
+        q = critic.apply(params, o, g, action)  # (B,) or (B, critics): each fits y
+        if config.critics == 1:
+            return td_loss(q, y), q
+        return sum(td_loss(q[:, i], y) for i in range(config.critics)), q  # each head's own
 
     critic_params, critic_opt_state, critic_value, q = optim.gradient_step(
         critic_loss_fn, state.critic_params, state.critic_opt_state, critic_opt(config)
@@ -278,13 +287,13 @@ def _step(
     def actor_loss_fn(params: Params) -> tuple[jax.Array, None]:
         pi = actor.apply(params, o, g)
         if state.bounds == "invert":
-            q_of = lambda a: jnp.sum(critic.apply(critic_params, o, g, a))
+            q_of = lambda a: jnp.sum(pessimistic(critic.apply(critic_params, o, g, a), config))
             return inverting_actor_loss(q_of, pi), None
-        q_pi = critic.apply(critic_params, o, g, pi)
+        q_pi = pessimistic(critic.apply(critic_params, o, g, pi), config)
         loss = actor_loss(q_pi, pi, config.action_l2)
         if not bc_weight:
             return loss, None
-        q_demo = critic.apply(critic_params, o, g, action)
+        q_demo = pessimistic(critic.apply(critic_params, o, g, action), config)
         bc, share = q_filtered_bc_loss(pi, action, nbatch["demo"], q_demo, q_pi)
         return loss + bc_weight * bc, {"bc_loss": bc, "bc_share": share}
 

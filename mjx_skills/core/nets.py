@@ -46,15 +46,21 @@ class Actor(nn.Module):
 
 
 class Critic(nn.Module):
-    """Q(obs, goal, action): (..., obs_dim), (..., goal_dim), (..., act_dim) -> (...)."""
+    """Q(obs, goal, action): (..., obs_dim), (..., goal_dim), (..., act_dim) -> (...); with
+    `ensemble` E > 1, E independently initialised critics side by side -> (..., E)
+    (the twin critics of TD3, Fujimoto et al. 2018, at E = 2)."""
 
     hidden: tuple[int, ...] = (64, 64, 64)
     layer_norm: bool = True
+    ensemble: int = 1
 
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array, action: jax.Array) -> jax.Array:
         x = jnp.concatenate([obs, goal, action], axis=-1)
-        return MLP(self.hidden, self.layer_norm, 1)(x)[..., 0]
+        if self.ensemble == 1:  # no ensemble axis: the parameters stay those of one MLP
+            return MLP(self.hidden, self.layer_norm, 1)(x)[..., 0]
+        heads = [MLP(self.hidden, self.layer_norm, 1)(x)[..., 0] for _ in range(self.ensemble)]
+        return jnp.stack(heads, axis=-1)
 
 
 class CoarseDynamics(nn.Module):
