@@ -44,6 +44,8 @@ ADDITION_CELLS = (
     ("fast_wall_eval_pick_low_floor", "container_wall", "fast_wall", LOW_FLOOR),
     ("fast_eval_pick_success_floor", "pick_move", "fast", SUCCESS_FLOOR),
     ("fast_wall_eval_pick_success_floor", "container_wall", "fast_wall", SUCCESS_FLOOR),
+    ("fast_eval_pick_low_floor_twin", "pick_move", "fast_eval_pick_low_floor",
+     "twin critics (`--ddpg.critics 2`: TD3's clipped double Q, also in the pick)"),
 )
 """(experiment, task, the default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against the default it is added to, over the same epochs;
@@ -54,7 +56,8 @@ ADDITIONS = ("Candidates for pick_move's target, each added in turn to the defau
              f"(`experiments/{'.toml`, `'.join(row[0] for row in ADDITION_CELLS)}.toml`):")  # fmt: skip
 DEFAULTS = {"fast": "today's default", "fast_wall": "today's default",
             "fast_first": f"the first default ({FIRST})",
-            "fast_wall_first": f"the first default ({FIRST})"}  # fmt: skip
+            "fast_wall_first": f"the first default ({FIRST})",
+            "fast_eval_pick_low_floor": f"the low-floor candidate ({LOW_FLOOR})"}  # fmt: skip
 """The full method's experiments and which default each holds."""
 EXPERIMENTS = (*DEFAULTS, *(row[0] for row in (*ABLATION_CELLS, *ADDITION_CELLS)))
 TITLES = {"fast": "Beyond the thesis: DDPG+HER+SL+Fast, learning faster than the oracle explorer"}
