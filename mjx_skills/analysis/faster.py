@@ -46,6 +46,8 @@ ADDITION_CELLS = (
     ("fast_wall_eval_pick_success_floor", "container_wall", "fast_wall", SUCCESS_FLOOR),
     ("fast_eval_pick_low_floor_twin", "pick_move", "fast_eval_pick_low_floor",
      "twin critics (`--ddpg.critics 2`: TD3's clipped double Q, also in the pick)"),
+    ("fast_eval_pick_low_floor_tau", "pick_move", "fast_eval_pick_low_floor",
+     "slower targets (tau 0.0125 per update instead of 0.05)"),
 )
 """(experiment, task, the default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against the default it is added to, over the same epochs;
