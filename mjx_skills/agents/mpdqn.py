@@ -62,10 +62,11 @@ SKILL_GOAL = 3
 
 def init(key, obs_dim: int, goal_dim: int, n_skills: int, config: DDPGConfig) -> ddpg.DDPGState:
     """`n_skills` discrete choices (skills, or (cube, skill) pairs) over a `goal_dim` task.
-    Raises ValueError for `config.critics` > 1 (its per-skill critic has one head)."""
+    Raises ValueError for `config.critics` > 1 (this per-skill critic has one head)."""
     if config.critics != 1:
-        raise ValueError(f"invalid config value for 'critics': PAS and MPAS train one critic, "
-                         f"got {config.critics}")  # fmt: skip
+        raise ValueError(f"invalid config value for 'critics': the per-skill critic of PAS and "
+                         f"MPAS is one network (--pas.critic joint takes more), got "
+                         f"{config.critics}")  # fmt: skip
     return ddpg.init(key, obs_dim, goal_dim, n_skills * PARAM_DIM, config,
                      critic_act_dim=n_skills + SKILL_GOAL)  # fmt: skip
 

@@ -48,7 +48,7 @@ ADDITION_CELLS = (
      "twin critics (`--ddpg.critics 2`: TD3's clipped double Q, also in the pick)"),
     ("fast_eval_pick_low_floor_tau", "pick_move", "fast_eval_pick_low_floor",
      "slower targets (tau 0.0125 per update instead of 0.05)"),
-)
+)  # fmt: skip
 """(experiment, task, the default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against the default it is added to, over the same epochs;
 the one that meets it also on container_wall, where the other targets' seeds can stay stuck."""
