@@ -220,7 +220,8 @@ def update(
     reward (n, B). The normalisers stay as they are during the n steps, so all batches are
     normalised in one pass before the loop, which holds only the networks' update (a cycle
     at one update per env step ran 1.44x faster so on 2 CPU cores).
-    Returns the new state and per-step metrics (n,): critic_loss, actor_loss, q_mean.
+    Returns the new state and per-step metrics (n,): critic_loss (summed over the critics),
+    actor_loss, q_mean (over every critic's head).
 
     `bc_weight` > 0 (batches then hold `demo` (n, B) bool, the rows whose action an expert
     took): the actor also clones the demonstrated actions where the critic rates them above
@@ -278,7 +279,7 @@ def _step(
         q = critic.apply(params, o, g, action)  # (B,) or (B, critics): each fits y
         if config.critics == 1:
             return td_loss(q, y), q
-        return sum(td_loss(q[:, i], y) for i in range(config.critics)), q  # each head's own
+        return sum(td_loss(q[..., i], y) for i in range(config.critics)), q  # each head's own
 
     critic_params, critic_opt_state, critic_value, q = optim.gradient_step(
         critic_loss_fn, state.critic_params, state.critic_opt_state, critic_opt(config)
