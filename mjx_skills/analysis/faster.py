@@ -48,6 +48,8 @@ ADDITION_CELLS = (
      "twin critics (`--ddpg.critics 2`: TD3's clipped double Q, also in the pick)"),
     ("fast_eval_pick_low_floor_tau", "pick_move", "fast_eval_pick_low_floor",
      "slower targets (tau 0.0125 per update instead of 0.05)"),
+    ("fast_eval_pick_low_floor_n3", "pick_move", "fast_eval_pick_low_floor",
+     "3-step returns (`--ddpg.n-step 3`, uncorrected)"),
 )  # fmt: skip
 """(experiment, task, the default's experiment, what is added or changed): candidates for
 pick_move's target, each measured against the default it is added to, over the same epochs;
