@@ -43,6 +43,7 @@ ADDITION_CELLS = (
     ("fast_eval_pick_low_floor", "pick_move", "fast", LOW_FLOOR),
     ("fast_wall_eval_pick_low_floor", "container_wall", "fast_wall", LOW_FLOOR),
     ("fast_eval_pick_success_floor", "pick_move", "fast", SUCCESS_FLOOR),
+    ("fast_twin", "pick_move", "fast", "twin critics (`--ddpg.critics 2`, also in the pick)"),
     ("fast_wall_eval_pick_success_floor", "container_wall", "fast_wall", SUCCESS_FLOOR),
     ("fast_eval_pick_low_floor_twin", "pick_move", "fast_eval_pick_low_floor",
      "twin critics (`--ddpg.critics 2`: TD3's clipped double Q, also in the pick)"),
