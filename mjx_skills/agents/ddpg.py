@@ -276,10 +276,10 @@ def _step(
     y = _td_target(state, nbatch, config)
 
     def critic_loss_fn(params: Params) -> tuple[jax.Array, jax.Array]:
-        q = critic.apply(params, o, g, action)  # (B,) or (B, critics): each fits y
+        q = critic.apply(params, o, g, action)  # (B,) or (B, critics): every head fits y
         if config.critics == 1:
             return td_loss(q, y), q
-        return sum(td_loss(q[..., i], y) for i in range(config.critics)), q  # each head's own
+        return sum(td_loss(q[..., i], y) for i in range(config.critics)), q
 
     critic_params, critic_opt_state, critic_value, q = optim.gradient_step(
         critic_loss_fn, state.critic_params, state.critic_opt_state, critic_opt(config)

@@ -28,6 +28,7 @@ EVAL_PICK = "the pick in evaluation only (the actor acts in training)"
 LOW_FLOOR = f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.03"
 SUCCESS_FLOOR = (f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.1 x (1 - the previous "
                  "epoch's eval success)")  # fmt: skip
+TWIN = "twin critics (`--ddpg.critics 2`: TD3's clipped double Q, also in the pick)"
 CANDIDATES = (("fast_eval_pick_first", "fast_wall_eval_pick_first", f"the first default, {EVAL_PICK}"),
               ("fast_eval_pick_low_floor", "fast_wall_eval_pick_low_floor", LOW_FLOOR),
               ("fast_eval_pick_success_floor", "fast_wall_eval_pick_success_floor", SUCCESS_FLOOR))  # fmt: skip
@@ -38,15 +39,14 @@ ADDITION_CELLS = (
     ("fast_held", "pick_move", "fast", "held starts (half the training starts with the cube held)"),
     ("fast_quiet", "pick_move", "fast", "no random actions (random_eps 0 instead of 0.2)"),
     ("fast_eval_pick", "pick_move", "fast", EVAL_PICK),
+    ("fast_twin", "pick_move", "fast", TWIN),
     ("fast_eval_pick_first", "pick_move", "fast_first", EVAL_PICK),
     ("fast_wall_eval_pick_first", "container_wall", "fast_wall_first", EVAL_PICK),
     ("fast_eval_pick_low_floor", "pick_move", "fast", LOW_FLOOR),
     ("fast_wall_eval_pick_low_floor", "container_wall", "fast_wall", LOW_FLOOR),
     ("fast_eval_pick_success_floor", "pick_move", "fast", SUCCESS_FLOOR),
-    ("fast_twin", "pick_move", "fast", "twin critics (`--ddpg.critics 2`, also in the pick)"),
     ("fast_wall_eval_pick_success_floor", "container_wall", "fast_wall", SUCCESS_FLOOR),
-    ("fast_eval_pick_low_floor_twin", "pick_move", "fast_eval_pick_low_floor",
-     "twin critics (`--ddpg.critics 2`: TD3's clipped double Q, also in the pick)"),
+    ("fast_eval_pick_low_floor_twin", "pick_move", "fast_eval_pick_low_floor", TWIN),
     ("fast_eval_pick_low_floor_tau", "pick_move", "fast_eval_pick_low_floor",
      "slower targets (tau 0.0125 per update instead of 0.05)"),
     ("fast_eval_pick_low_floor_n3", "pick_move", "fast_eval_pick_low_floor",

@@ -57,10 +57,8 @@ class Critic(nn.Module):
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array, action: jax.Array) -> jax.Array:
         x = jnp.concatenate([obs, goal, action], axis=-1)
-        if self.ensemble == 1:  # no ensemble axis: the parameters stay those of one MLP
-            return MLP(self.hidden, self.layer_norm, 1)(x)[..., 0]
         heads = [MLP(self.hidden, self.layer_norm, 1)(x)[..., 0] for _ in range(self.ensemble)]
-        return jnp.stack(heads, axis=-1)
+        return heads[0] if self.ensemble == 1 else jnp.stack(heads, axis=-1)  # MLP_0, MLP_1, ...
 
 
 class CoarseDynamics(nn.Module):
