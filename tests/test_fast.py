@@ -80,3 +80,50 @@ def test_the_pick_acts_in_training_only_where_asked_and_always_in_evaluation(
     assert (explored == "base explores") != in_training
     _, action, _ = learner.evaluate("agent", "library").step((), jax.random.key(0), STATE)
     assert action == "picked" and calls[-1][:2] == ("agent", "library")
+
+
+def test_evaluation_reads_polyak_averages_folded_in_after_each_cycle_and_training_does_not(
+    monkeypatch,
+):
+    """`--fast.eval-average w`: after each cycle's update the averages move to w averages +
+    (1 - w) online; exploring and updating see the online networks, evaluation the averages
+    (normalisers: the online agent's)."""
+    w, calls, seen = 0.75, [], []
+    agent0 = ddpg.init(jax.random.key(0), 25, 3, 4, CONFIG)
+    shift = lambda a: a.replace(  # noqa: E731 - one cycle's "learning": every weight + 1
+        actor_params=jax.tree.map(lambda x: x + 1.0, a.actor_params),
+        critic_params=jax.tree.map(lambda x: x + 1.0, a.critic_params),
+        steps=a.steps + 1,
+    )
+    base = fast.Learner(init=lambda key: agent0,
+                        explore=lambda agent, *a: seen.append(agent) or "explores",
+                        evaluate=None, store=None,
+                        update=lambda agent, *a: (shift(agent), {"loss": 0.0}))  # fmt: skip
+    monkeypatch.setattr(fast, "make_ddpg_her_sl", lambda *a: base)
+    monkeypatch.setattr(fast, "pick", lambda *a: calls.append(a) or ("picked", None))
+    config = fast.FastConfig(pick_in_training=False, eval_average=w)
+    learner = fast.make_ddpg_her_sl_fast(ONE_CUBE, TrainConfig(), CONFIG, SearchConfig(), config)
+    state = learner.init(jax.random.key(1))
+    for _ in range(3):
+        state, losses = learner.update(state, None, None, None)
+    assert losses == {"loss": 0.0} and int(state.agent.steps) == 3
+    # after k cycles the online weights are p0 + k, the averages p0 + (1 - w) sum_j w^(k-j) j
+    lag = (1 - w) * sum(w ** (3 - j) * j for j in (1, 2, 3))
+    for name in ("actor_params", "critic_params"):
+        start, online = getattr(agent0, name), getattr(state.agent, name)
+        jax.tree.map(lambda p, o: np.testing.assert_allclose(o, p + 3.0, atol=1e-5), start, online)
+        jax.tree.map(lambda p, a: np.testing.assert_allclose(a, p + lag, atol=1e-5), start,
+                     getattr(state, name))  # fmt: skip
+    prog = Progress(jnp.zeros((), jnp.int32), jnp.zeros(()))
+    assert learner.explore(state, "library", prog) == "explores" and seen[-1] is state.agent
+    learner.evaluate(state, "library").step((), jax.random.key(0), STATE)
+    evaluated = calls[-1][0]
+    assert evaluated.actor_params is state.actor_params
+    assert evaluated.critic_params is state.critic_params
+    assert evaluated.obs_norm is state.agent.obs_norm and calls[-1][1] == "library"
+    # without averaging the agent is the base's own, unwrapped
+    plain = fast.make_ddpg_her_sl_fast(ONE_CUBE, TrainConfig(), CONFIG, SearchConfig(),
+                                       fast.FastConfig())  # fmt: skip
+    assert plain.init(jax.random.key(1)) is agent0
+    with pytest.raises(ValueError, match="eval_average"):
+        fast.FastConfig(eval_average=1.0)

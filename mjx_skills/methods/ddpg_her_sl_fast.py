@@ -34,11 +34,12 @@ import dataclasses
 
 import jax
 import jax.numpy as jnp
+from flax import struct
 
 from mjx_skills.agents import ddpg
 from mjx_skills.agents.ddpg import DDPGState
 from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig, check_numbers
-from mjx_skills.core import rollout
+from mjx_skills.core import optim, rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.two_objects import finish_first, object_views
@@ -68,12 +69,21 @@ class FastConfig:
     explores with its actor and DDPG's noise, so the replay holds the actor's own actions)."""
     proposals: int = 8
     """(skill, goal) edges drawn per step; each proposes its skill policy's action."""
+    eval_average: float = 0.0
+    """Evaluate Polyak averages of actor and critic: after each cycle's updates, averaged
+    <- eval_average averaged + (1 - eval_average) online (0.8: about the last 5 cycles);
+    training acts and learns with the online networks as before. 0: the online networks
+    are evaluated (no averages kept). Weight averaging against DDPG's oscillating policies
+    (Nikishin et al. 2018, "Improving Stability in Deep Reinforcement Learning with Weight
+    Averaging")."""
 
     def __post_init__(self) -> None:
         check_numbers(self)
         for name in ("updates_per_cycle", "proposals"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if not 0.0 <= self.eval_average < 1.0:
+            raise ValueError(f"eval_average must lie in [0, 1), got {self.eval_average}")
 
 
 def propose(
@@ -135,14 +145,15 @@ def pick(
 
 def make_ddpg_her_sl_fast(
     env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig, search: SearchConfig, fast: FastConfig
-) -> Learner[DDPGState, SkillLibrary]:
+) -> Learner[DDPGState | Averaged, SkillLibrary]:
     """DDPG+HER+SL's learner and explorer at `fast.updates_per_cycle`, the critic picking
-    the learner's actions where `fast.pick`."""
+    the learner's actions where `fast.pick`, evaluated with averaged networks where
+    `fast.eval_average` (its agent then an `Averaged`)."""
     train = dataclasses.replace(train, updates_per_cycle=fast.updates_per_cycle)
     base = make_ddpg_her_sl(env, train, ddpg, search)
     n = fast.proposals
     if not fast.pick:
-        return base
+        return _averaging(base, fast.eval_average)
 
     def chosen(agent, lib):
         return lambda key, obs, goal: pick(agent, lib, search, obs, goal, key, n, ddpg, env)[0]
@@ -157,7 +168,52 @@ def make_ddpg_her_sl_fast(
     def evaluate(agent, lib):
         return rollout.stateless(chosen(agent, lib))
 
-    return base._replace(explore=explore, evaluate=evaluate)
+    return _averaging(base._replace(explore=explore, evaluate=evaluate), fast.eval_average)
+
+
+@struct.dataclass
+class Averaged:
+    """A DDPG agent with Polyak averages of its actor and critic (`FastConfig.eval_average`):
+    training acts and learns with `agent`, evaluation with `view()`."""
+
+    agent: DDPGState
+    actor_params: dict
+    critic_params: dict
+
+    @classmethod
+    def start(cls, agent: DDPGState) -> Averaged:
+        """The averages started at the agent's networks."""
+        return cls(agent, agent.actor_params, agent.critic_params)
+
+    def fold(self, agent: DDPGState, weight: float) -> Averaged:
+        """The new online `agent`, folded in: averages <- weight averages + (1 - weight) its
+        networks, leaf by leaf."""
+        mix = lambda avg, online: optim.soft_update(avg, online, 1.0 - weight)  # noqa: E731
+        return Averaged(agent, mix(self.actor_params, agent.actor_params),
+                        mix(self.critic_params, agent.critic_params))  # fmt: skip
+
+    def view(self) -> DDPGState:
+        """The agent with the averaged networks in the online ones' place."""
+        return self.agent.replace(actor_params=self.actor_params, critic_params=self.critic_params)
+
+
+def _averaging(learner: Learner, weight: float) -> Learner:
+    """`learner` whose agent keeps Polyak averages of its networks, folded in after each
+    cycle's updates, and is evaluated with them (`Averaged`); `learner` itself where weight
+    is 0."""
+    if not weight:
+        return learner
+
+    def update(state, buffer, fresh, key):
+        agent, losses = learner.update(state.agent, buffer, fresh, key)
+        return state.fold(agent, weight), losses
+
+    return learner._replace(
+        init=lambda key: Averaged.start(learner.init(key)),
+        explore=lambda state, aux, progress: learner.explore(state.agent, aux, progress),
+        update=update,
+        evaluate=lambda state, aux: learner.evaluate(state.view(), aux),
+    )
 
 
 def _noisy(policy, config: DDPGConfig):
