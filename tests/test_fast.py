@@ -72,7 +72,7 @@ def test_the_pick_acts_in_training_only_where_asked_and_always_in_evaluation(
     monkeypatch.setattr(fast, "make_ddpg_her_sl", lambda *a: base)
     monkeypatch.setattr(fast, "make_behaviour", lambda *a, own, success: ("picking", own))
     monkeypatch.setattr(fast, "pick", lambda *a: calls.append(a) or ("picked", None))
-    config = fast.FastConfig(pick_in_training=in_training)
+    config = fast.FastConfig(pick_in_training=in_training, eval_average=0.0)
     learner = fast.make_ddpg_her_sl_fast(ONE_CUBE, TrainConfig(), CONFIG, SearchConfig(), config)
     explored = learner.explore(
         "agent", "library", Progress(jnp.zeros((), jnp.int32), jnp.zeros(()))
@@ -123,7 +123,7 @@ def test_evaluation_reads_polyak_averages_folded_in_after_each_cycle_and_trainin
     assert evaluated.obs_norm is state.agent.obs_norm and calls[-1][1] == "library"
     # without averaging the agent is the base's own, unwrapped
     plain = fast.make_ddpg_her_sl_fast(ONE_CUBE, TrainConfig(), CONFIG, SearchConfig(),
-                                       fast.FastConfig())  # fmt: skip
+                                       fast.FastConfig(eval_average=0.0))  # fmt: skip
     assert plain.init(jax.random.key(1)) is agent0
     with pytest.raises(ValueError, match="eval_average"):
         fast.FastConfig(eval_average=1.0)

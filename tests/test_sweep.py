@@ -307,3 +307,33 @@ def test_a_longer_budget_trains_on_from_the_shorter_cells_run(finished_sweep, tm
     assert max(r["epoch"] for r in read_metrics(run)) == 3
     other = dataclasses.replace(exp, epochs=3, train={**TINY, "cycles": 1})
     assert sweep.copy_shorter_run(other.cells()[0], sweep_dir / other.cells()[0].name) is None
+
+
+def test_a_field_whose_default_changed_matches_older_definitions_at_its_earlier_value():
+    """A stored definition lacking `fast.pick_in_training` was made with the pick in training
+    (`cells.EARLIER`), today's default being off: it matches a cell that sets it on, not one
+    at today's default. An option the method does not read with the cell's switches (the
+    pick's options with `fast.pick` off) is no difference."""
+    from mjx_skills.sweeps import cells
+
+    second = load_experiment("fast").cells()[0]  # pins the second default's values
+    new = cells.definition(second)["config"]
+    old = json.loads(json.dumps(new))
+    del old["options"]["fast"]["pick_in_training"], old["options"]["fast"]["eval_average"]
+    assert new["options"]["fast"]["pick_in_training"] is True
+    assert cells._config_differences(old, new) == []
+    today = json.loads(json.dumps(new))
+    today["options"]["fast"].update(pick_in_training=False, eval_average=0.8)
+    assert cells._config_differences(old, today) == [
+        "options.fast.eval_average: None != 0.8",
+        "options.fast.pick_in_training: None != False",
+    ]
+    no_pick = json.loads(json.dumps(new))
+    no_pick["options"]["fast"].update(pick=False, proposals=32)
+    old["options"]["fast"]["pick"] = False
+    assert cells._config_differences(old, no_pick) == []
+    no_pick["options"]["fast"]["pick"] = True  # read again once the pick is on
+    assert cells._config_differences(old, no_pick) == [
+        "options.fast.pick: False != True",
+        "options.fast.proposals: 8 != 32",
+    ]

@@ -145,8 +145,8 @@ METHODS: dict[str, Method] = {
     "ddpg_her_sl_fast": Method(
         name="ddpg_her_sl_fast",
         description="DDPG+HER+SL made to learn faster: wider networks, more updates, a "
-        "shorter explorer decay, the critic picking among the library's proposals "
-        "(beyond the thesis)",
+        "shorter explorer decay, the critic picking among the library's proposals, averaged "
+        "networks evaluated (beyond the thesis)",
         options={"ddpg": FAST_DDPG, "search": FAST_SEARCH, "fast": FastConfig()},
         make_learner=make_ddpg_her_sl_fast,
         unread={"train.updates_per_cycle": "--fast.updates-per-cycle"},

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import shutil
+import types
 from pathlib import Path
 from typing import Any
 
@@ -56,12 +57,22 @@ def definition(cell) -> dict[str, Any]:
     return {"config": config, "library": library_provenance(config)}
 
 
+EARLIER: dict[str, dict[str, dict[str, Any]]] = {
+    "ddpg_her_sl_fast": {"fast": {"pick_in_training": True, "eval_average": 0.0}},
+}
+"""Option fields whose default changed after they were added, by method and group: the value
+the code had before the field existed, at which a stored definition that lacks it was made."""
+
+
 def defaults(method: str) -> dict[str, Any]:
-    """The config of a run of `method` with every field at its default, as JSON reads back."""
+    """The config of a run of `method` as JSON reads back, every field at the value a stored
+    definition that lacks it was made at: its default, or its `EARLIER` value."""
     from mjx_skills import methods
     from mjx_skills.config import EnvConfig, TrainConfig
 
     groups = {name: dataclasses.asdict(opt) for name, opt in methods.get(method).options.items()}
+    for group, fields in EARLIER.get(method, {}).items():
+        groups[group] = {**groups[group], **fields}
     raw = {"train": dataclasses.asdict(TrainConfig()), "env": dataclasses.asdict(EnvConfig()),
            "options": groups}  # fmt: skip
     return json.loads(json.dumps(raw))
@@ -81,7 +92,22 @@ def differences(old: Any, new: Any, path: str = "", default: Any = None) -> list
 
 
 def _config_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
-    return differences(old, new, default=defaults(new["method"]))
+    """`differences` of two configs, but in the options the new one's method does not read
+    (`Method.unread_now`: they cannot change its results)."""
+    unread = _unread(new)
+    return [d for d in differences(old, new, default=defaults(new["method"]))
+            if d.split(":")[0] not in unread]  # fmt: skip
+
+
+def _unread(config: dict[str, Any]) -> set[str]:
+    """Dotted paths ('options.fast.proposals', 'train.updates_per_cycle') of the fields that
+    `config`'s method does not read with its option groups."""
+    from mjx_skills import methods
+
+    spec = methods.get(config["method"])
+    groups = {g: types.SimpleNamespace(**config["options"][g]) for g in spec.options}
+    return {f"options.{path}" if path.split(".")[0] in spec.options else path
+            for path in spec.unread_now(groups)}  # fmt: skip
 
 
 def run_differences(run_dir: Path, cell) -> list[str]:
