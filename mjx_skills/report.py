@@ -330,9 +330,9 @@ def render(r: Results, draw: bool = True) -> str:
                 lines += ["", "The targets of the issue \"learn faster than the oracle explorer\" ('0.9 at epoch' "
                           "[95 % interval: whole seeds' curves resampled, `stats.reach_interval`]):",
                           "", *table(faster.HEADER, faster.faster(r)), "",
-                          "Each ingredient removed in turn: the first default's on pick_move (`experiments/fast_no_*.toml`) and its pick also on container_wall (`experiments/fast_wall_no_pick.toml`), against the first default (`experiments/fast_first.toml`, `fast_wall_first.toml`); the second default's eps floor on container_wall (`experiments/fast_wall_no_floor.toml`), against the second default (`experiments/fast_wall.toml`):",
+                          faster.ABLATION_INTRO,
                           "", *table(faster.ABLATION_HEADER, faster.ablation_rows(r)), "",
-                          faster.ADDITIONS, "", *table(["task", "added", *faster.ABLATION_HEADER[2:]], faster.addition_rows(r))]  # fmt: skip
+                          faster.ADDITIONS, "", *table(["task", "added", *faster.ABLATION_HEADER[2:]], faster.addition_rows(r)), "", faster.PAIRED_INTRO, "", *faster.paired(r)]  # fmt: skip
         elif experiment == two_cubes.EXPERIMENT:
             lines += [two_cubes.INTRO, "", *table(two_cubes.HEADER, two_cubes.rows(r)), "",
                       *two_cubes.verdict(r)]  # fmt: skip

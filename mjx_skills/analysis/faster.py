@@ -19,11 +19,16 @@ FLOOR = "the eps floor (eps decayed over 5 epochs to 0.001 instead of 0.1)"
 """The second default's floor (experiments/fast_wall.toml), removed."""
 ABLATION_CELLS = (*((f"fast_no_{x}", "pick_move", "fast_first", why) for x, why in ABLATIONS.items()),
                   ("fast_wall_no_pick", "container_wall", "fast_wall_first", ABLATIONS["pick"]),
-                  ("fast_wall_no_floor", "container_wall", "fast_wall", FLOOR))  # fmt: skip
+                  ("fast_wall_no_floor", "container_wall", "fast_wall", FLOOR),
+                  ("fast_avg_no_pick", "pick_move", "fast_eval_pick_low_floor_avg",
+                   "the critic's pick in evaluation (the averaged actor alone acts)"),
+                  ("fast_eval_pick_low_floor", "pick_move", "fast_eval_pick_low_floor_avg",
+                   "the averaged networks (the online ones evaluated; the same training)"))  # fmt: skip
 """(experiment, task, the full method's experiment, what is removed): the first default's
 ablations on pick_move and its pick's also on container_wall (where seeds can stay stuck);
 the second default's floor on container_wall, where it is what keeps seeds from staying
-stuck."""
+stuck; today's default's pick and averaging on pick_move (both act in evaluation only, so
+each ablation trains as the default does)."""
 EVAL_PICK = "the pick in evaluation only (the actor acts in training)"
 LOW_FLOOR = f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.03"
 SUCCESS_FLOOR = (f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.1 x (1 - the previous "
@@ -73,9 +78,11 @@ DEFAULTS = {"fast": SECOND, "fast_wall": SECOND,
             "fast_first": f"the first default ({FIRST})",
             "fast_wall_first": f"the first default ({FIRST})",
             "fast_eval_pick_low_floor": f"the low-floor candidate ({LOW_FLOOR})",
+            "fast_eval_pick_low_floor_avg": "today's default",
             "fast_wall_eval_pick_low_floor": f"the low-floor candidate ({LOW_FLOOR})"}  # fmt: skip
 """The full method's experiments and which default each holds."""
 EXPERIMENTS = (*DEFAULTS, *(row[0] for row in (*ABLATION_CELLS, *ADDITION_CELLS)))
+METHOD = "ddpg_her_sl_fast"
 TITLES = {"fast": "Beyond the thesis: DDPG+HER+SL+Fast, learning faster than the oracle explorer"}
 
 TARGETS = (("pick_move", 30), ("put_in_container", 40))
@@ -178,6 +185,17 @@ def _cells(r, cell, s, verdict: str | None) -> list[str]:
             verdict or ""]  # fmt: skip
 
 
+ABLATION_INTRO = ("Each ingredient removed in turn: the first default's on pick_move "
+                  "(`experiments/fast_no_*.toml`) and its pick also on container_wall "
+                  "(`experiments/fast_wall_no_pick.toml`), against the first default "
+                  "(`experiments/fast_first.toml`, `fast_wall_first.toml`); the second default's "
+                  "eps floor on container_wall (`experiments/fast_wall_no_floor.toml`), against the"
+                  " second default (`experiments/fast_wall.toml`); today's default's pick and "
+                  "averaged networks on pick_move (`experiments/fast_avg_no_pick.toml`; the low-"
+                  "floor candidate, `fast_eval_pick_low_floor.toml`, is today's default without "
+                  "averaging), against today's default "
+                  "(`experiments/fast_eval_pick_low_floor_avg.toml`):")  # fmt: skip
+"""What the ablation table removes, from which default."""
 ABLATION_HEADER = ["task", "removed", "seeds x epochs", "last 5 epochs [95 % CI]",
                    "lowest seed, its last 10", "0.9 at epoch", "mean over epochs [95 % CI]",
                    "faster"]  # fmt: skip
@@ -187,3 +205,50 @@ def addition_rows(r) -> list[list[str]]:
     """`ablation_rows` of the candidates (`ADDITION_CELLS`), each against the default it is
     added to."""
     return ablation_rows(r, ADDITION_CELLS, (None, "the addition"))
+
+
+PAIRED = (("pick_move", TODAY[0], "fast_eval_pick_low_floor"),
+          ("put_in_container", TODAY[0], "fast_eval_pick_low_floor"),
+          ("container_wall", TODAY[1], "fast_wall_eval_pick_low_floor"))  # fmt: skip
+"""(task, today's default's experiment, the same without averaging): pairs whose training is
+the same, so that seed by seed only the evaluated networks differ."""
+
+
+PAIRED_INTRO = ("Today's default against the same without averaging (the low-floor candidate), "
+                "seed by seed: its averaged networks act in evaluation only, so each seed should "
+                "train as in the other cell, only the evaluated networks differing (checked per "
+                "task: the critic losses). The last-5-epoch mean's difference, its mean over "
+                "seeds with a 95 % bootstrap interval:")  # fmt: skip
+
+
+def _losses(rows: list[dict], upto: int) -> dict[tuple[int, int], float]:
+    """(seed, epoch) -> critic loss, over the first `upto` epochs."""
+    return {(m["seed"], m["epoch"]): m["critic_loss"] for m in rows if m["epoch"] <= upto}
+
+
+def paired(r) -> list[str]:
+    """Per task of `PAIRED` with both cells in: today's default minus the low-floor candidate,
+    seed by seed over the last 5 epochs, the mean of the differences with its 95 % bootstrap
+    interval, on how many seeds it is positive, and whether the two trained alike (their
+    critic losses equal at every epoch and seed)."""
+    lines = []
+    for task, averaged, online in PAIRED:
+        (a_cell, a), (b_cell, b) = r.find(averaged, task, METHOD), r.find(online, task, METHOD)
+        if a is None or b is None:
+            continue
+        rows_a, rows_b = r.metrics[a_cell.name], r.metrics[b_cell.name]
+        epochs = min(a.epochs, b.epochs)
+        same = _losses(rows_a, epochs) == _losses(rows_b, epochs)
+        sa, sb = (
+            stats.scores_from_rows(rows_a)[:, :epochs],
+            stats.scores_from_rows(rows_b)[:, :epochs],
+        )
+        diff = sa[:, -stats.LAST :].mean(axis=1) - sb[:, -stats.LAST :].mean(axis=1)
+        mean, low, high = (float(x[0]) for x in stats.interval(diff[:, None]))
+        trained = ("the same training: critic losses equal at every epoch and seed" if same
+                   else "not the same training: their critic losses differ")  # fmt: skip
+        lines.append(f"- {task} ({trained}): over epochs {epochs - stats.LAST + 1}-{epochs}, "
+                     f"averaged minus online {mean:+.3f} [{low:+.3f}, {high:+.3f}], higher on "
+                     f"{int((diff > 0).sum())} of {len(diff)} seeds, lower on "
+                     f"{int((diff < 0).sum())}.")  # fmt: skip
+    return lines
