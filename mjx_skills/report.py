@@ -169,8 +169,8 @@ CELL_HEADER = ["task", "method", "seeds x epochs", "last 5 epochs [95 % CI]", "0
 VARIANTS = {"thesis_preset": ("thesis preset", None), "pas_single_goal": ("single goal", None),
             "take_out_held": ("held starts", None), "oracle": ("oracle explorer", None),
             "bc": ("", "ddpg_her_sl"), "bc_weight": ("weight 10", "ddpg_her_sl"),
-            "fast": ("", "ddpg_her_sl"),
-            **{e: (f"no {e.rsplit('_', 1)[1]}", base) for e, _, base, _ in faster.ABLATION_CELLS}}  # fmt: skip
+            "fast": ("second default", "ddpg_her_sl"),
+            **{e: (f"without {why}", base) for e, _, base, why in faster.ABLATION_CELLS}}  # fmt: skip
 """Experiments compared cell by cell with another's: (their cells' tag, what they are
 compared with: Fig. 6.3's (Fig. 6.5's) cell of that method (None: the same method), or an
 experiment's name: its cell of the same task and method)."""

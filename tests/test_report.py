@@ -141,3 +141,39 @@ def test_the_two_cube_bar_needs_a_library_method_high_and_ddpg_her_near_zero():
                                             ddpg_her_sl_fast=0.85)  # fmt: skip
     assert "not all its cells are run yet" in said(ddpg_her=0.0)
     assert "not all its cells are run yet" in said(ddpg_her_sl=0.9)
+
+
+def test_the_paired_comparison_differences_each_seeds_last_five_and_checks_the_training():
+    """Averaged minus online, seed by seed over the last 5 epochs: the mean of the per-seed
+    differences, how many seeds are higher / lower, and whether the two trained alike (their
+    critic losses); cells holding other seeds are refused rather than paired by position."""
+    import types
+
+    from mjx_skills.analysis import faster
+
+    def rows(curves, losses):
+        return [{"seed": s, "epoch": e + 1, "eval_success": v, "critic_loss": losses[s]}
+                for s, curve in enumerate(curves) for e, v in enumerate(curve)]  # fmt: skip
+
+    online = [[0.5] * 10, [0.8] * 10, [0.6] * 10]
+    averaged = [[0.5] * 5 + [0.7] * 5, [0.8] * 10, [0.6] * 5 + [0.5] * 5]  # +0.2, 0, -0.1
+    metrics = {"a": rows(averaged, [1.0, 2.0, 3.0]), "b": rows(online, [1.0, 2.0, 3.0])}
+
+    class Fake:
+        def __init__(self):
+            self.metrics = metrics
+
+        def find(self, experiment, task, method):
+            name = "a" if experiment in faster.TODAY else "b"
+            cell = types.SimpleNamespace(name=name)
+            return cell, (types.SimpleNamespace(epochs=10) if task == "pick_move" else None)
+
+    (line,) = faster.paired(Fake())
+    assert line.startswith("- pick_move (the same training")
+    assert "over epochs 6-10, averaged minus online +0.033" in line
+    assert "higher on 1 of 3 seeds, lower on 1." in line
+    metrics["a"] = rows(averaged, [1.0, 2.0, 3.5])
+    assert "not the same training" in faster.paired(Fake())[0]
+    metrics["a"] = [m for m in metrics["a"] if m["seed"] != 2]
+    with pytest.raises(ValueError, match="other seeds"):
+        faster.paired(Fake())

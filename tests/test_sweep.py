@@ -311,7 +311,7 @@ def test_a_longer_budget_trains_on_from_the_shorter_cells_run(finished_sweep, tm
 
 def test_a_field_whose_default_changed_matches_older_definitions_at_its_earlier_value():
     """A stored definition lacking `fast.pick_in_training` was made with the pick in training
-    (`cells.EARLIER`), today's default being off: it matches a cell that sets it on, not one
+    (`Method.earlier`), today's default being off: it matches a cell that sets it on, not one
     at today's default. An option the method does not read with the cell's switches (the
     pick's options with `fast.pick` off) is no difference."""
     from mjx_skills.sweeps import cells
@@ -337,3 +337,20 @@ def test_a_field_whose_default_changed_matches_older_definitions_at_its_earlier_
         "options.fast.pick: False != True",
         "options.fast.proposals: 8 != 32",
     ]
+
+
+def test_a_run_written_before_a_default_changed_loads_at_the_earlier_value(tmp_path):
+    """A ddpg_her_sl_fast run whose config.json predates `fast.eval_average` and
+    `fast.pick_in_training` resumes as it was made: online networks evaluated, the pick in
+    training (`Method.earlier`), not at today's defaults."""
+    from mjx_skills.methods.ddpg_her_sl_fast import FastConfig
+    from mjx_skills.training import runner
+
+    args = load_experiment("fast_eval_pick_low_floor_avg").cells()[0].run_args(str(tmp_path))
+    runner.save_config(tmp_path, args)
+    raw = json.loads((tmp_path / "config.json").read_text())
+    assert raw["options"]["fast"]["eval_average"] == FastConfig().eval_average == 0.8
+    del raw["options"]["fast"]["eval_average"], raw["options"]["fast"]["pick_in_training"]
+    (tmp_path / "config.json").write_text(json.dumps(raw))
+    fast = runner.load_config(tmp_path).options["fast"]
+    assert fast.eval_average == 0.0 and fast.pick_in_training is True

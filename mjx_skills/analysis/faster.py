@@ -34,7 +34,7 @@ LOW_FLOOR = f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.03"
 SUCCESS_FLOOR = (f"{EVAL_PICK}, eps over 10 epochs to a floor of 0.1 x (1 - the previous "
                  "epoch's eval success)")  # fmt: skip
 AVERAGED = ("the evaluated networks Polyak-averaged (`--fast.eval-average 0.8`, folded in after "
-            "each cycle; training unchanged)")  # fmt: skip
+            "each cycle)")  # fmt: skip
 TWIN = "twin critics (`--ddpg.critics 2`: TD3's clipped double Q, also in the pick)"
 SECOND = "the second default (eps over 5 epochs to 0.1, the pick also in training)"
 TODAY = ("fast_eval_pick_low_floor_avg", "fast_wall_eval_pick_low_floor_avg")
@@ -237,6 +237,8 @@ def paired(r) -> list[str]:
         if a is None or b is None:
             continue
         rows_a, rows_b = r.metrics[a_cell.name], r.metrics[b_cell.name]
+        if {m["seed"] for m in rows_a} != {m["seed"] for m in rows_b}:
+            raise ValueError(f"{a_cell.name} and {b_cell.name} hold other seeds: not paired")
         epochs = min(a.epochs, b.epochs)
         same = _losses(rows_a, epochs) == _losses(rows_b, epochs)
         sa, sb = (

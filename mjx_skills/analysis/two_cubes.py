@@ -24,7 +24,8 @@ TARGET = ("two_in_container", 0.8, ("ddpg_her_sl", "mpas", "ddpg_her_sl_fast"))
 """(task, the last-5 mean one of these methods must reach, the methods)."""
 INTRO = (
     "`experiments/two_objects.toml`: every method on the two-cube tasks through the same "
-    "trainer, and DDPG+HER+SL+Fast on two_in_container (`experiments/two_objects_fast.toml`, "
+    "trainer, and DDPG+HER+SL+Fast with its second default (eps over 5 epochs to 0.1, the "
+    "pick also in training) on two_in_container (`experiments/two_objects_fast.toml`, "
     "a shorter budget; with the step-wise reward and goal starts of docs/simulation.md in "
     "`two_objects_fast_reward.toml` and `two_objects_fast_goal_start.toml`; on pick_move_two "
     "with the step-wise reward in `two_objects_fast_pick_move_two.toml`), the skill library "

@@ -41,6 +41,10 @@ class Method:
     unread_unless: dict[str, str] = dataclasses.field(default_factory=dict)
     """Options it reads only while a switch of the same group is on ("group.field" ->
     "switch"); setting one with the switch off is an error."""
+    earlier: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
+    """Option fields whose default changed after they were added ("group" -> {field: the
+    value the code had before the field existed}): a run's config.json or a stored cell's
+    definition that lacks one was made at that value, not at today's default."""
 
     @property
     def library_group(self) -> str | None:
@@ -151,6 +155,7 @@ METHODS: dict[str, Method] = {
         make_learner=make_ddpg_her_sl_fast,
         unread={"train.updates_per_cycle": "--fast.updates-per-cycle"},
         unread_unless={"fast.proposals": "pick", "fast.pick_in_training": "pick"},
+        earlier={"fast": {"pick_in_training": True, "eval_average": 0.0}},
     ),
     **{
         name: Method(

@@ -70,7 +70,8 @@ class FastConfig:
     """Gradient steps per cycle (DDPG+HER+SL: 100, `--updates-per-cycle`, which this
     method does not read)."""
     pick: bool = True
-    """The critic picks the learner's actions among the library's proposals (`pick`)."""
+    """The critic picks the evaluated policy's actions among the library's proposals (and
+    the learner's too where `pick_in_training`)."""
     pick_in_training: bool = False
     """The pick also acts in training (the second default); False: only the evaluated policy
     picks, the learner explores with its actor and DDPG's noise, so the replay holds the
@@ -80,7 +81,9 @@ class FastConfig:
     eval_average: float = 0.8
     """Evaluate Polyak averages of actor and critic: after each cycle's updates, averaged
     <- eval_average averaged + (1 - eval_average) online (0.8: about the last 5 cycles);
-    training acts and learns with the online networks as before. 0: the online networks
+    training acts and learns with the online networks as before (what it explores with
+    differs only through `--search.eps-floor-by-success`, whose floor reads the evaluated
+    policy's success). 0: the online networks
     are evaluated (no averages kept; the second default). Weight averaging against DDPG's oscillating policies
     (Nikishin et al. 2018, "Improving Stability in Deep Reinforcement Learning with Weight
     Averaging")."""

@@ -57,21 +57,14 @@ def definition(cell) -> dict[str, Any]:
     return {"config": config, "library": library_provenance(config)}
 
 
-EARLIER: dict[str, dict[str, dict[str, Any]]] = {
-    "ddpg_her_sl_fast": {"fast": {"pick_in_training": True, "eval_average": 0.0}},
-}
-"""Option fields whose default changed after they were added, by method and group: the value
-the code had before the field existed, at which a stored definition that lacks it was made."""
-
-
 def defaults(method: str) -> dict[str, Any]:
     """The config of a run of `method` as JSON reads back, every field at the value a stored
-    definition that lacks it was made at: its default, or its `EARLIER` value."""
+    definition that lacks it was made at: its default, or its earlier one (`Method.earlier`)."""
     from mjx_skills import methods
     from mjx_skills.config import EnvConfig, TrainConfig
 
     groups = {name: dataclasses.asdict(opt) for name, opt in methods.get(method).options.items()}
-    for group, fields in EARLIER.get(method, {}).items():
+    for group, fields in methods.get(method).earlier.items():
         groups[group] = {**groups[group], **fields}
     raw = {"train": dataclasses.asdict(TrainConfig()), "env": dataclasses.asdict(EnvConfig()),
            "options": groups}  # fmt: skip

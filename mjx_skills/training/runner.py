@@ -90,7 +90,8 @@ def load_config(run_dir: Path) -> RunArgs:
             f"{path} was written by an earlier version (no method options); start a new run"
         )
     spec = methods.get(raw["method"])
-    options = {name: from_dict(type(spec.options[name]), group)
+    # a field added since the run was written: at the value the code had then
+    options = {name: from_dict(type(spec.options[name]), {**spec.earlier.get(name, {}), **group})
                for name, group in raw["options"].items()}  # fmt: skip
     return RunArgs(train=from_dict(TrainConfig, raw["train"]), method=raw["method"],
                    env=from_dict(EnvConfig, raw["env"]), options=options, resume=str(run_dir))  # fmt: skip
