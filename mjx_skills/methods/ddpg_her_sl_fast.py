@@ -83,10 +83,9 @@ class FastConfig:
     <- eval_average averaged + (1 - eval_average) online (0.8: about the last 5 cycles);
     training acts and learns with the online networks as before (what it explores with
     differs only through `--search.eps-floor-by-success`, whose floor reads the evaluated
-    policy's success). 0: the online networks
-    are evaluated (no averages kept; the second default). Weight averaging against DDPG's oscillating policies
-    (Nikishin et al. 2018, "Improving Stability in Deep Reinforcement Learning with Weight
-    Averaging")."""
+    policy's success). 0: the online networks are evaluated (no averages kept; the second
+    default). Weight averaging against DDPG's oscillating policies (Nikishin et al. 2018,
+    "Improving Stability in Deep Reinforcement Learning with Weight Averaging")."""
 
     def __post_init__(self) -> None:
         check_numbers(self)

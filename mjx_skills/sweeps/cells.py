@@ -63,8 +63,9 @@ def defaults(method: str) -> dict[str, Any]:
     from mjx_skills import methods
     from mjx_skills.config import EnvConfig, TrainConfig
 
-    groups = {name: dataclasses.asdict(opt) for name, opt in methods.get(method).options.items()}
-    for group, fields in methods.get(method).earlier.items():
+    spec = methods.get(method)
+    groups = {name: dataclasses.asdict(opt) for name, opt in spec.options.items()}
+    for group, fields in spec.earlier.items():
         groups[group] = {**groups[group], **fields}
     raw = {"train": dataclasses.asdict(TrainConfig()), "env": dataclasses.asdict(EnvConfig()),
            "options": groups}  # fmt: skip
