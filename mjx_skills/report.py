@@ -230,10 +230,8 @@ def figure(r: Results, experiment: str, out: Path, draw: bool = True) -> Path | 
             tag = VARIANTS[experiment][0]
             pairs = [x for c, s, *_ in pairs
                      for x in ((*baseline(r, experiment, c), "", False), (c, s, tag, True))]  # fmt: skip
-        if experiment == "fast":  # the oracle explorer's curve, the target to beat
-            pairs += [
-                (c, s, "oracle explorer", True) for c, s in r.cells["oracle"] if c.task == task
-            ]
+        if experiment == "fast":  # the oracle explorer's curve, the target to beat; today's
+            pairs += faster.dashed(r, task)
         if experiment == two_cubes.EXPERIMENT:  # DDPG+HER+SL+Fast and its variants, dashed
             pairs += two_cubes.dashed(r, task)
         for cell, s, tag, dashed in pairs:

@@ -254,3 +254,12 @@ def paired(r) -> list[str]:
                      f"{int((diff > 0).sum())} of {len(diff)} seeds, lower on "
                      f"{int((diff < 0).sum())}.")  # fmt: skip
     return lines
+
+
+def dashed(r, task: str) -> list[tuple]:
+    """The curves drawn beside the second default's (dashed) in the section's figure, as
+    (cell, summary, tag, dashed): the oracle explorer's (the target to beat), dashed, and
+    today's default's, solid."""
+    return [(c, s, tag, dashed) for experiment, tag, dashed in (
+                ("oracle", "oracle explorer", True), (TODAY[0], "today's", False))
+            for c, s in r.cells[experiment] if c.task == task]  # fmt: skip
