@@ -346,6 +346,9 @@ class SearchConfig:
     """eps_end x (1 - the previous epoch's eval success): kept while a seed fails (False: fixed)."""
     grasp_reach: float = 0.0
     """Grasp's initiation set (m): > 0, grasp starts only this near the cube; 0: anywhere."""
+    goal_clearance: float = 0.0
+    """Several cubes: each cube's goal as the explorers aim it, moved this far (m, xy) clear
+    of the other cubes (`two_objects.clear_goals`); 0: the task's goals as they are."""
 
     def __post_init__(self) -> None:
         check_numbers(self)

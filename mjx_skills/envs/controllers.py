@@ -52,8 +52,12 @@ def _carry_target(env: BaxterEnv, obs: jax.Array, goal: jax.Array, place: bool) 
     return goal - offset
 
 
-def make_scripted_policy(env: BaxterEnv) -> Callable[[jax.Array, jax.Array], jax.Array]:
-    """-> policy(obs (25,), goal (3,)) -> action (4,) for `env`'s task."""
+def make_scripted_policy(
+    env: BaxterEnv, slots: jax.Array | None = None
+) -> Callable[[jax.Array, jax.Array], jax.Array]:
+    """-> policy(obs (25,), goal (3,)) -> action (4,) for `env`'s task; `slots` (2, 3): a
+    two-cube task's offsets of each cube's place from its goal (default `CONTAINER_SLOTS` in
+    the container, none elsewhere)."""
     if not env.goal_is_object:  # transit: go straight to the goal, fingers open
 
         def transit(obs, goal):
@@ -61,7 +65,7 @@ def make_scripted_policy(env: BaxterEnv) -> Callable[[jax.Array, jax.Array], jax
 
         return transit
     if isinstance(env, TwoObjects):
-        return _two_cubes(env)
+        return _two_cubes(env, slots)
     place = isinstance(env, PutInContainer) and not isinstance(env, TakeOut)
     return _pick_place(env, place, detour=isinstance(env, ContainerWall))
 
@@ -103,14 +107,15 @@ CONTAINER_SLOTS = jnp.array([[0.0, -0.025, 0.0], [0.0, 0.025, 0.0]])
 """Where the script puts each cube in the container, from its centre: side by side."""
 
 
-def _two_cubes(env: TwoObjects):
+def _two_cubes(env: TwoObjects, slots: jax.Array | None):
     """The blue cube first (placed: on its table goal, or in the container), then, once the
     open fingers are clear above it, the red one (pick_move_two: held at its goal in the
     air; two_in_container: placed beside it)."""
     container = isinstance(env, PutInContainer)
     first = _pick_place(env, place=True, detour=False)
     second = _pick_place(env, place=container, detour=False)
-    slots = CONTAINER_SLOTS if container else jnp.zeros((2, 3))
+    if slots is None:
+        slots = CONTAINER_SLOTS if container else jnp.zeros((2, 3))
 
     def policy(obs: jax.Array, goal: jax.Array) -> jax.Array:
         one, two = env.project(obs, 0), env.project(obs, 1)
