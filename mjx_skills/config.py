@@ -65,9 +65,8 @@ class DDPGConfig:
     gamma: float = 0.98
     """Discount factor (Table 6.1)."""
     tau: float = 0.05
-    """Soft target update at every gradient step: target <- (1 - tau) target + tau online.
-    Table 6.1's 1e-3 assumes 8 workers x 800 updates per epoch, too slow at our 400
-    (docs/methods.md); the HER baselines apply this value (polyak 0.95) once per cycle."""
+    """Soft target update per gradient step, target <- (1 - tau) target + tau online (Table
+    6.1's 1e-3 is too slow at our updates, docs/methods.md; HER baselines: 0.05 per cycle)."""
     batch_size: int = 128
     """Transitions per gradient step (Table 6.1)."""
     noise_sigma: float = 0.2
@@ -75,7 +74,7 @@ class DDPGConfig:
     random_eps: float = 0.2
     """Share of uniformly random exploration actions (original code: 20 %)."""
     action_l2: float = 1.0
-    """Weight of the L2 penalty on the actor's pre-noise actions (standard HER refinement)."""
+    """Weight of the L2 penalty on the actor's pre-noise actions (HER's)."""
     clip_target: bool = True
     """Clip critic targets to [-1 / (1 - gamma), 0], the range of sparse -1/0 returns."""
     norm_clip: float = 5.0
@@ -91,6 +90,9 @@ class DDPGConfig:
     """Critic targets from n-step returns (`her.sample_batch`); 1: one-step TD, the thesis's."""
     critics: int = 1
     """Critics side by side (2: TD3's clipped double Q); Q read anywhere is their minimum."""
+    architecture: Literal["mlp", "deep_sets"] = "mlp"
+    """'deep_sets': actor and critic take the scene as the set of its cubes' views (gripper,
+    cube k, goal k), one encoder shared by all, summed (`nets.DeepSet`); 'mlp': the whole."""
 
     def __post_init__(self) -> None:
         check_numbers(self)
@@ -105,6 +107,8 @@ class DDPGConfig:
         _check(self.norm_eps > 0, "norm_eps", "must be > 0 (the floor of a std)")
         strategies = ("future", "final", "episode", "none")
         _check(self.her_strategy in strategies, "her_strategy", f"one of {', '.join(strategies)}")
+        _check(self.architecture in ("mlp", "deep_sets"), "architecture", "valid: mlp, deep_sets")
+        _check(self.architecture == "mlp" or len(self.hidden) > 1, "hidden", "deep_sets: >= 2")
 
 
 Physics = Literal["auto", "native", "mjx"]
@@ -138,8 +142,8 @@ class EnvConfig:
     grasp_settle_substeps: int = 30
     """Substeps a reset closes the fingers for tasks that start with the cube held."""
     posture_stiffness: float = 5.0
-    """Stiffness (N m / rad) of the weak joint springs toward the home posture that keep the
-    redundant arm out of joint limits while the weld drags it around."""
+    """Stiffness (N m / rad) of the weak joint springs toward the home posture (they keep
+    the redundant arm out of joint limits)."""
     max_qvel: float = 100.0
     """A joint speed above this (or a NaN) counts as diverged physics: the env is reset."""
     native_threads: int = 0
@@ -149,9 +153,8 @@ class EnvConfig:
     distance_threshold: float = 0.0
     """Success tolerance in m; 0 = the task's default (3 cm for most tasks)."""
     held_start_prob: float = 0.0
-    """Share of training resets that start with the cube already closed in the fingers where
-    it lies (for tasks whose goal is the cube's position). The original code trains grasp
-    with 0.5 (the HER paper's trick for pick-and-place); evaluation never does."""
+    """Share of training resets starting with the cube closed in the fingers where it lies
+    (the original code trains grasp with 0.5, HER's trick); evaluation never does."""
     goal_start_prob: float = 0.0
     """Share of training resets of several-cube tasks with one cube (whose goal rests on a
     surface) starting at its goal: a reverse curriculum (Florensa et al. 2017). Evaluation
@@ -160,17 +163,16 @@ class EnvConfig:
     """Several cubes: the step-wise sparse reward (Li et al. 2020), minus the share of cubes
     not at their goals (-1, -0.5, 0), instead of -1 until all are. Success is unchanged."""
     single_goal: bool = False
-    """Every episode has one desired goal, the mean of the task's goal distribution, instead
-    of a goal drawn per episode: the single-goal formulation of the thesis's PAS baseline,
-    after its reference [21] (docs/results.md). Off: the thesis's tasks."""
+    """One desired goal for every episode, the mean of the task's goal distribution: the
+    thesis's PAS baseline after its reference [21] (docs/results.md). Off: the thesis's."""
 
     def __post_init__(self) -> None:
         check_numbers(self)
         _check(self.physics in PHYSICS, "physics", f"must be one of {', '.join(PHYSICS)}")
         _check(self.timestep > 0, "timestep", "must be > 0")
-        for name in ("n_substeps", "solver_iterations", "ls_iterations", "settle_substeps"):
+        for name in ("n_substeps", "solver_iterations", "ls_iterations", "settle_substeps",
+                     "grasp_settle_substeps"):  # fmt: skip
             _check(getattr(self, name) >= 1, name, "must be >= 1")
-        _check(self.grasp_settle_substeps >= 1, "grasp_settle_substeps", "must be >= 1")
         _check(self.action_scale > 0, "action_scale", "must be > 0")
         for name in ("held_start_prob", "goal_start_prob"):
             _check(0.0 <= getattr(self, name) <= 1.0, name, "must lie in [0, 1]")
@@ -198,8 +200,8 @@ class TrainConfig:
     cycles: int = 4
     """Collect-then-train cycles per epoch (envs x cycles = 16 episodes, as the thesis)."""
     updates_per_cycle: int = 100
-    """Gradient steps after each cycle's episodes (original code: 40 per cycle, but 20 cycles
-    per epoch; 100 x 4 cycles learned transit fastest per env step and per second here)."""
+    """Gradient steps after each cycle's episodes (original code: 40 x 20 cycles; 100 x 4
+    learned transit fastest here)."""
     eval_episodes: int = 20
     """Evaluation episodes per epoch with the frozen deterministic policy (thesis: 20)."""
     replay_capacity: int = 1_000_000
@@ -208,8 +210,7 @@ class TrainConfig:
     """Save the whole run state every N epochs (and on Ctrl-C and at the end)."""
     out: str = "runs"
     """Results go to OUT/<task>/<method>/<timestamp>/."""
-    progress: bool = True
-    """Draw a progress bar."""
+    progress: bool = True  # draw a progress bar
 
     def __post_init__(self) -> None:
         check_numbers(self)
@@ -231,16 +232,14 @@ class LibraryConfig:
     transfer_epochs: int = 100
     """DDPG+HER epochs of the transfer skill."""
     grasp_held_start_prob: float = 0.5
-    """Share of grasp training episodes that start with the cube closed in the fingers (the
-    original code's 0.5); evaluation and data collection never do."""
+    """Share of grasp training episodes starting with the cube held (original code: 0.5)."""
     skill_eval_episodes: int = 200
     """Fresh episodes from each skill's true start distribution that measure its success."""
     samples: int = 10_000
     """(start, goal) pairs run per skill for the models and memories (thesis: 100,000)."""
     own_start_share: float = 0.5
-    """Share of those starts drawn from the skill's own start distribution; the rest come
-    evenly from the other skills' (gripper anywhere, near the cube, cube held), so the
-    classifier also sees the states where the search and PAS will ask and the skill fails."""
+    """Share of those starts from the skill's own start distribution; the rest evenly from
+    the other skills', where the search and PAS will ask and the skill fails."""
     collect_envs: int = 1000
     """Skill runs simulated together during collection."""
     model_hidden: tuple[int, ...] = (256, 256, 256)
@@ -248,10 +247,9 @@ class LibraryConfig:
     model_lr: float = 1e-3
     """Adam learning rate of the coarse model (thesis: 1e-5, for 3 x 1000 units)."""
     anchor: Literal["start", "goal"] = "goal"
-    """What the coarse model's prediction and a recalled memory are measured from: 'start'
-    (the thesis: the change from the start state) or 'goal' (positions relative to the
-    skill's goal, where a successful run ends; a recalled neighbour's offset from its own
-    goal carries over to the query's). Table 5.1 for both: docs/results.md."""
+    """What coarse predictions and recalled memories are measured from: 'start' (the thesis:
+    the change from the start) or 'goal' (positions relative to the skill's goal, where a
+    successful run ends). Table 5.1 for both: docs/results.md."""
     classifier_hidden: tuple[int, ...] = (50, 10)
     """Hidden widths of the success classifier (thesis: 50, 10)."""
     classifier_lr: float = 1e-3
@@ -259,8 +257,7 @@ class LibraryConfig:
     fit_batch: int = 256
     """Samples per gradient step of the fits."""
     fit_epochs: int = 60
-    """Most passes over the training split; the fit stops earlier once the held-out loss
-    has not improved for `patience` passes, keeping the best parameters."""
+    """Most passes over the training split (early stopping after `patience`, best kept)."""
     patience: int = 8
     """Passes without held-out improvement before a fit stops."""
     holdout: float = 0.1

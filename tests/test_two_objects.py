@@ -408,3 +408,32 @@ def test_the_stage_diagnostic_tells_a_second_cube_stacked_on_the_first_from_one_
     assert out["one_there"]["other_on_top_of_the_first"] == 0.5
     assert out["one_there"]["other_cube_held_after"] == 1.0
     assert out["first_cube_there_at_step"] == 2.0
+
+
+def test_deep_sets_networks_see_the_cubes_as_a_set_of_their_views():
+    """--ddpg.architecture deep_sets: each cube's view is `object_views`'s; actor and critic
+    give the same output with the two cubes (and their goals) swapped, but not with only the
+    goals swapped; an MLP does not; a deep-sets agent without views is refused."""
+    from mjx_skills.agents import ddpg
+    from mjx_skills.config import DDPGConfig
+    from mjx_skills.envs.two_objects import _CUBE_1, ONE, object_views, view_indices
+
+    env = make("two_in_container")
+    obs = jax.random.normal(jax.random.PRNGKey(0), (8, 40))
+    goal = jax.random.normal(jax.random.PRNGKey(1), (8, 6))
+    views = view_indices(env)
+    gathered = np.stack([np.asarray(obs)[:, list(v)] for v in views], axis=1)
+    np.testing.assert_array_equal(gathered, object_views(env, obs))
+    swapped = obs.at[:, _CUBE_1].set(obs[:, ONE:]).at[:, ONE:].set(obs[:, _CUBE_1])
+    other_goal = jnp.concatenate([goal[:, 3:], goal[:, :3]], axis=1)
+    for arch in ("deep_sets", "mlp"):
+        cfg = DDPGConfig(hidden=(32, 32, 32), architecture=arch)
+        agent = ddpg.init(jax.random.PRNGKey(2), 40, 6, 4, cfg, views=views)
+        a = ddpg.act(agent, obs, goal, cfg)
+        same = np.abs(ddpg.act(agent, swapped, other_goal, cfg) - a).max()
+        q_same = np.abs(ddpg.q_value(agent, swapped, other_goal, a, cfg)
+                        - ddpg.q_value(agent, obs, goal, a, cfg)).max()  # fmt: skip
+        assert (same < 1e-5 and q_same < 1e-4) if arch == "deep_sets" else same > 1e-3
+        assert np.abs(ddpg.act(agent, obs, other_goal, cfg) - a).max() > 1e-3
+    with pytest.raises(ValueError, match="views"):
+        ddpg.init(jax.random.PRNGKey(2), 40, 6, 4, DDPGConfig(architecture="deep_sets"))

@@ -39,20 +39,22 @@ class DDPGState:
     """How actions stay in [-1, 1]: 'tanh' squashes the actor's output; 'invert' keeps it
     linear and inverts the critic's gradients at the bounds (Hausknecht & Stone 2016, the
     parameterized-action actor of PAS), clipping it wherever an action is used."""
+    views: tuple | None = struct.field(pytree_node=False, default=None)
+    """The objects' views of a `deep_sets` architecture (`nets.Views`), static; None: MLPs."""
 
 
 def actor_module(state: DDPGState, config: DDPGConfig) -> Actor:
-    return _actor_module(state.act_dim, state.bounds, config)
+    return _actor_module(state.act_dim, state.bounds, config, state.views)
 
 
-def _actor_module(act_dim: int, bounds: str, config: DDPGConfig) -> Actor:
+def _actor_module(act_dim: int, bounds: str, config: DDPGConfig, views=None) -> Actor:
     return Actor(act_dim=act_dim, hidden=tuple(config.hidden),
-                 layer_norm=config.layer_norm, squash=bounds == "tanh")  # fmt: skip
+                 layer_norm=config.layer_norm, squash=bounds == "tanh", views=views)  # fmt: skip
 
 
-def critic_module(config: DDPGConfig) -> Critic:
+def critic_module(config: DDPGConfig, views=None) -> Critic:
     return Critic(hidden=tuple(config.hidden), layer_norm=config.layer_norm,
-                  ensemble=config.critics)  # fmt: skip
+                  ensemble=config.critics, views=views)  # fmt: skip
 
 
 def pessimistic(q: jax.Array, config: DDPGConfig) -> jax.Array:
@@ -80,18 +82,24 @@ def init(
     config: DDPGConfig,
     bounds: str = "tanh",
     critic_act_dim: int | None = None,
+    views: tuple | None = None,
 ) -> DDPGState:
     """Fresh networks (targets equal to the online ones), Adam states, empty normalisers.
     `critic_act_dim`: the critic's action input where it is not the actor's output (the
-    per-skill critic of PAS, `pdqn`)."""
+    per-skill critic of PAS, `pdqn`). `views`: the objects' views (`nets.Views`), for
+    `config.architecture` 'deep_sets' (required there, ignored otherwise)."""
+    if config.architecture == "mlp":
+        views = None
+    elif views is None:
+        raise ValueError("architecture 'deep_sets' needs the objects' views (nets.Views)")
     if bounds not in BOUNDS:
         raise ValueError(f"unknown action bounds {bounds!r}; valid: {', '.join(BOUNDS)}")
     k_actor, k_critic = jax.random.split(key)
     obs = jnp.zeros((1, obs_dim), jnp.float32)
     goal = jnp.zeros((1, goal_dim), jnp.float32)
     action = jnp.zeros((1, critic_act_dim or act_dim), jnp.float32)
-    actor_params = _actor_module(act_dim, bounds, config).init(k_actor, obs, goal)
-    critic_params = critic_module(config).init(k_critic, obs, goal, action)
+    actor_params = _actor_module(act_dim, bounds, config, views).init(k_actor, obs, goal)
+    critic_params = critic_module(config, views).init(k_critic, obs, goal, action)
     return DDPGState(
         actor_params=actor_params,
         critic_params=critic_params,
@@ -104,6 +112,7 @@ def init(
         steps=jnp.zeros((), jnp.int32),
         act_dim=act_dim,
         bounds=bounds,
+        views=views,
     )
 
 
@@ -157,7 +166,8 @@ def q_value(
 ) -> jax.Array:
     """Online critic Q: (..., obs_dim), (..., goal_dim), (..., act_dim) -> (...)."""
     o, g = normalize_inputs(state, obs, goal, config)
-    return pessimistic(critic_module(config).apply(state.critic_params, o, g, action), config)
+    critic = critic_module(config, state.views)
+    return pessimistic(critic.apply(state.critic_params, o, g, action), config)
 
 
 def observe(state: DDPGState, obs: jax.Array, goal: jax.Array) -> DDPGState:
@@ -183,7 +193,7 @@ def normalize_batch(
 def _td_target(state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig) -> jax.Array:
     o2, g = nbatch["next_obs"], nbatch["goal"]
     a2 = _bounded(state, actor_module(state, config).apply(state.target_actor_params, o2, g))
-    q2 = critic_module(config).apply(state.target_critic_params, o2, g, a2)
+    q2 = critic_module(config, state.views).apply(state.target_critic_params, o2, g, a2)
     return target_from_next_value(nbatch, pessimistic(q2, config), config)
 
 
@@ -271,7 +281,7 @@ def q_filtered_bc_loss(
 def _step(
     state: DDPGState, nbatch: dict[str, jax.Array], config: DDPGConfig, bc_weight: float = 0.0
 ) -> tuple[DDPGState, dict[str, jax.Array]]:
-    actor, critic = actor_module(state, config), critic_module(config)
+    actor, critic = actor_module(state, config), critic_module(config, state.views)
     o, g, action = nbatch["obs"], nbatch["goal"], nbatch["action"]
     y = _td_target(state, nbatch, config)
 

@@ -29,19 +29,59 @@ class MLP(nn.Module):
         return nn.Dense(self.out_dim)(x)
 
 
+class DeepSet(nn.Module):
+    """(..., n, in) -> (..., out_dim): a set of n elements, each encoded by the same layers
+    (Dense -> [LayerNorm] -> ReLU per width of `hidden` but the last), summed over the set,
+    then an MLP of the last width (Deep Sets, Zaheer et al. 2017): the same output for any
+    order of the elements."""
+
+    hidden: tuple[int, ...]
+    layer_norm: bool
+    out_dim: int
+
+    @nn.compact
+    def __call__(self, x: jax.Array) -> jax.Array:
+        for width in self.hidden[:-1]:
+            x = nn.Dense(width)(x)
+            if self.layer_norm:
+                x = nn.LayerNorm()(x)
+            x = nn.relu(x)
+        return MLP(self.hidden[-1:], self.layer_norm, self.out_dim)(x.sum(axis=-2))
+
+
+Views = tuple[tuple[int, ...], ...]
+"""Per object k, the observation's indices that make its view (static): obs[..., views[k]]."""
+
+
+def object_set(obs: jax.Array, goal: jax.Array, views: Views, *rest: jax.Array) -> jax.Array:
+    """(..., obs_dim), (..., goal_dim) [, (..., d) shared by all] -> (..., n, view + goal_dim
+    / n [+ d]): object k's view, its part of the goal and what every object shares."""
+    n = len(views)
+    parts = [jnp.stack([obs[..., jnp.asarray(v)] for v in views], axis=-2),
+             goal.reshape(*goal.shape[:-1], n, -1)]  # fmt: skip
+    parts += [jnp.broadcast_to(r[..., None, :], (*r.shape[:-1], n, r.shape[-1])) for r in rest]
+    return jnp.concatenate(parts, axis=-1)
+
+
 class Actor(nn.Module):
     """pi(obs, goal): (..., obs_dim), (..., goal_dim) -> (..., act_dim), squashed into
-    [-1, 1] by tanh, or linear (`squash=False`: bounds kept by inverting gradients)."""
+    [-1, 1] by tanh, or linear (`squash=False`: bounds kept by inverting gradients). With
+    `views`: a `DeepSet` over the objects' views (`object_set`)."""
 
     act_dim: int
     hidden: tuple[int, ...] = (64, 64, 64)
     layer_norm: bool = True
     squash: bool = True
+    views: Views | None = None
 
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
-        x = jnp.concatenate([obs, goal], axis=-1)
-        out = MLP(self.hidden, self.layer_norm, self.act_dim)(x)
+        if self.views is None:
+            out = MLP(self.hidden, self.layer_norm, self.act_dim)(jnp.concatenate([obs, goal], -1))
+        else:
+            out = DeepSet(self.hidden, self.layer_norm, self.act_dim)(
+                object_set(obs, goal, self.views)
+            )
         return jnp.tanh(out) if self.squash else out
 
 
@@ -53,11 +93,16 @@ class Critic(nn.Module):
     hidden: tuple[int, ...] = (64, 64, 64)
     layer_norm: bool = True
     ensemble: int = 1
+    views: Views | None = None
+    """As the `Actor`'s: a `DeepSet` over (view, its goal, the action) per object."""
 
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array, action: jax.Array) -> jax.Array:
-        x = jnp.concatenate([obs, goal, action], axis=-1)
-        heads = [MLP(self.hidden, self.layer_norm, 1)(x)[..., 0] for _ in range(self.ensemble)]
+        if self.views is None:
+            x, net = jnp.concatenate([obs, goal, action], axis=-1), MLP
+        else:
+            x, net = object_set(obs, goal, self.views, action), DeepSet
+        heads = [net(self.hidden, self.layer_norm, 1)(x)[..., 0] for _ in range(self.ensemble)]
         return heads[0] if self.ensemble == 1 else jnp.stack(heads, axis=-1)  # MLP_0, MLP_1, ...
 
 

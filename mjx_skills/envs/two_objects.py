@@ -37,6 +37,16 @@ def object_views(env, obs: jax.Array) -> jax.Array:
     return jnp.stack([env.project(obs, k) for k in range(env.n_objects)], axis=-2)
 
 
+def view_indices(env) -> tuple[tuple[int, ...], ...]:
+    """Per cube k of `env`'s scene, the observation's indices of its view, static (a
+    `nets.Views`): obs[..., view_indices(env)[k]] is `object_views(env, obs)[..., k, :]`."""
+    if env.n_objects == 1:
+        return (tuple(range(env.obs_dim)),)
+    other = np.arange(ONE)
+    other[_CUBE_1] = ONE + np.arange(len(_CUBE_1))
+    return tuple(range(ONE)), tuple(int(i) for i in other)
+
+
 def finish_first(held: jax.Array, at_goal: jax.Array) -> jax.Array:
     """held, at_goal (..., c) bool per cube -> (..., c) bool: another cube is in the fingers
     and not yet at its goal, so nothing starts on this cube's view (whose gripper looks

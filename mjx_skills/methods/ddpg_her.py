@@ -13,13 +13,16 @@ from mjx_skills.core import her, rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.replay import ReplayState
 from mjx_skills.core.types import GoalEnv
+from mjx_skills.envs.two_objects import view_indices
 
 
 def make_ddpg_her(env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig) -> Learner[DDPGState, None]:
     """Flat DDPG + HER: Gaussian / uniform exploration around the policy, HER relabelling."""
 
+    views = view_indices(env) if ddpg.architecture == "deep_sets" else None
+
     def init(key: jax.Array) -> ddpg_agent.DDPGState:
-        return ddpg_agent.init(key, env.obs_dim, env.goal_dim, env.action_dim, ddpg)
+        return ddpg_agent.init(key, env.obs_dim, env.goal_dim, env.action_dim, ddpg, views=views)
 
     def explore(agent, aux, progress) -> rollout.Behaviour:
         return rollout.stateless(lambda k, obs, goal: ddpg_agent.explore(agent, k, obs, goal, ddpg))
