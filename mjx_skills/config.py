@@ -302,8 +302,7 @@ class SearchConfig:
     lookahead_next: Literal["model", "memory"] = "model"
     """Next state of an edge: the coarse dynamics model or memory retrieval."""
     leaf_state: Literal["predicted", "goal"] = "predicted"
-    """The last level's states (they only feed the leaf value): predicted (`lookahead_next`),
-    or 'goal': each edge's skill ends at its goal (no coarse model on the last level)."""
+    """Last level's states: predicted (`lookahead_next`) or 'goal' (each skill ends at its goal)."""
     leaf_value: Literal["distance", "reward"] = "distance"
     """Value of a path's last state: minus its distance to the task goal in units of the
     task's success threshold (the original code) or the task's sparse reward (the text)."""
@@ -316,11 +315,9 @@ class SearchConfig:
     transfer_goal_noise: float = 0.03
     """Transfer goals are sampled within +- this (m) of the task goal."""
     waypoint_share: float = 0.3
-    """Share of transfer goals sampled anywhere in the transfer skill's goal box (waypoints
-    round an obstacle; 0: the thesis; 0.3 measured best with the stall memory)."""
+    """Share of transfer goals drawn anywhere in its goal box (waypoints; 0: the thesis)."""
     stall_memory: int = 8
-    """Obstacles each env remembers in an episode where a transit or transfer stalled; the
-    search prunes edges passing near one (0: the thesis; 8 measured best; skills/stalls.py)."""
+    """Obstacles remembered per episode where a skill stalled (0: the thesis; skills/stalls.py)."""
     stall_step: float = 0.003
     """A running transit/transfer whose gripper moved less than this (m) in one step, short
     of its goal, has stalled: it ends, and the obstacle is remembered ..."""
@@ -329,8 +326,8 @@ class SearchConfig:
     stall_radius: float = 0.03
     """... and prunes edges whose straight path passes within this (m) of it."""
     search_chunk: float = 0.25
-    """Envs searched at once, as a share of all envs of all seeds (at least one): deciding
-    envs are searched in chunks of this size, so a step costs only their search; 1: all."""
+    """Envs searched at once, as a share of all envs of all seeds (>= 1 env), so that a step
+    costs only its deciding envs' search; 1: all."""
     skill_steps: int = 10
     """w: a searched skill runs until it terminates or for this many steps (thesis: 10)."""
     eps_start: float = 1.0
@@ -346,6 +343,8 @@ class SearchConfig:
     goal_clearance: float = 0.0
     """Several cubes: each cube's goal as the explorers aim it, moved this far (m, xy) clear
     of the other cubes (`two_objects.clear_goals`); 0: the task's goals as they are."""
+    in_order: bool = False
+    """Several cubes: the explorers work on the first cube not at its goal only (False: any)."""
 
     def __post_init__(self) -> None:
         check_numbers(self)

@@ -342,6 +342,32 @@ def test_the_fast_methods_proposals_transfer_only_the_cube_held(held):
     assert np.mean(near < 0.03 * np.sqrt(3) + 1e-6) > 0.5
 
 
+def test_in_order_the_explorers_work_on_the_first_cube_not_at_its_goal():
+    """`workable` with in_order: nothing held -> the first cube not at its goal only; a cube
+    held short of its goal -> that cube (whatever its index); without in_order, any cube but
+    for a held one. DDPG+HER+SL+Fast's proposals follow it: with both cubes on the table and
+    --search.in-order, only cube 0's are allowed, without it both cubes'."""
+    from mjx_skills.config import SearchConfig
+    from mjx_skills.envs.two_objects import workable
+    from mjx_skills.methods import ddpg_her_sl_fast as fast
+    from tests.test_fast import EncodingLibrary
+
+    held = jnp.array([[0, 0], [0, 1], [1, 0], [0, 0], [1, 0]], bool)
+    at_goal = jnp.array([[0, 0], [0, 0], [0, 0], [1, 0], [1, 0]], bool)
+    np.testing.assert_array_equal(workable(held, at_goal, True),
+                                  [[1, 0], [0, 1], [1, 0], [0, 1], [0, 1]])  # fmt: skip
+    np.testing.assert_array_equal(workable(held, at_goal, False),
+                                  [[1, 1], [0, 1], [1, 0], [1, 1], [1, 1]])  # fmt: skip
+    two, n, per_cube = make("two_in_container"), 32, 4
+    obs = _free_scene(two, n)
+    goal = jnp.broadcast_to(jnp.concatenate([two.goal, two.goal]), (n, 6))
+    for in_order in (True, False):
+        _, ok = fast.propose_any(two, EncodingLibrary(), SearchConfig(in_order=in_order), obs,
+                                 goal, jax.random.key(5), per_cube)  # fmt: skip
+        ok = np.asarray(ok).reshape(n, 2, per_cube)
+        assert ok[:, 0].all() and (not ok[:, 1].any() if in_order else ok[:, 1].all())
+
+
 @pytest.mark.parametrize("held", [0, 1])
 def test_mpas_chooses_cube_and_skill_and_transfers_only_the_cube_held(held):
     """MPAS's meta-controller in a two-cube scene chooses among (cube, skill) pairs: exploring

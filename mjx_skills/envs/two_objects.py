@@ -102,6 +102,19 @@ def _unit_xy(v: jax.Array, fallback: jax.Array) -> jax.Array:
     return jnp.where(length > 1e-4, flat / jnp.maximum(length, 1e-4), fallback)
 
 
+def workable(held: jax.Array, at_goal: jax.Array, in_order: bool) -> jax.Array:
+    """held, at_goal (..., c) bool per cube -> (..., c) bool: the cubes the library's
+    explorers may start a skill on. A cube in the fingers and short of its goal is the only
+    one (`finish_first`); with `in_order`, otherwise only the first cube (by index) not at
+    its goal, so that the explorers fetch the cubes in one order."""
+    ok = ~finish_first(held, at_goal)
+    if not in_order:
+        return ok
+    first = jnp.argmax(~at_goal, axis=-1)[..., None]
+    nxt = (jnp.arange(at_goal.shape[-1]) == first) & ~at_goal
+    return ok & (nxt | (held & ~at_goal))
+
+
 class TwoObjects(BaxterEnv):
     """Mixin over a one-cube task: both cubes placed at reset, observed and scored."""
 

@@ -25,7 +25,7 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.core import rollout
 from mjx_skills.core.learner import Learner, Progress
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.envs.two_objects import clear_goals, finish_first, object_views
+from mjx_skills.envs.two_objects import clear_goals, object_views, workable
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.skills import execution, lookahead, stalls
 from mjx_skills.skills.library import SkillLibrary
@@ -77,7 +77,8 @@ def make_behaviour(
     started a transit towards the other cube right after a grasp, as often as not, and so
     dropped the first: no episode of its 100 epochs on pick_move_two put both cubes at
     their goals). Transfer is allowed only on a view whose cube is held
-    (`SkillLibrary.allowed`), so it only ever moves the held cube. Each cube's tree aims at
+    (`SkillLibrary.allowed`), so it only ever moves the held cube. With `cfg.in_order`
+    it searches only the first cube not at its goal (`two_objects.workable`). Each cube's tree aims at
     its goal moved `cfg.goal_clearance` clear of the other cubes (`clear_goals`)."""
     eps = epsilon(cfg, epoch, success)
     n = env.n_objects
@@ -121,7 +122,7 @@ def make_behaviour(
         where = explore[:, None]
         if n > 1:  # a cube already at its goal is left alone; a cube in hand is finished first
             at_goal = env.cube_success(state.achieved_goal, task_goal)  # (B, n)
-            where = where & ~at_goal & ~finish_first(env.grasped(views), at_goal)
+            where = where & ~at_goal & workable(env.grasped(views), at_goal, cfg.in_order)
         obstacles = ps.obstacles if cfg.stall_memory else None
         aimed = clear_goals(env, obs, task_goal, cfg.goal_clearance)  # (B, n, 3)
         found = lookahead.search_where(lib, cfg, scored, where.reshape(-1),

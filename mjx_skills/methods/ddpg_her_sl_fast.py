@@ -49,7 +49,7 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig, check_numbe
 from mjx_skills.core import optim, rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.envs.two_objects import clear_goals, finish_first, object_views
+from mjx_skills.envs.two_objects import clear_goals, object_views, workable
 from mjx_skills.methods.ddpg_her_sl import make_behaviour, make_ddpg_her_sl
 from mjx_skills.skills import lookahead
 from mjx_skills.skills.library import SkillLibrary
@@ -119,14 +119,15 @@ def propose_any(
     (gripper, that cube) towards that cube's part of the goal (`object_views`; moved
     `search.goal_clearance` clear of the other cubes, `clear_goals`), so transfer
     is proposed only for the held cube, and nothing on another cube's view while the held
-    one is short of its goal (`two_objects.finish_first`)."""
+    one is short of its goal (`two_objects.workable`; with `search.in_order` only on the
+    first cube not at its goal)."""
     views = object_views(env, obs)  # (B, c, 25)
     B, c = views.shape[:2]
     aimed = clear_goals(env, obs, goal, search.goal_clearance).reshape(B * c, -1)
     actions, ok = propose(lib, search, views.reshape(B * c, -1), aimed, key, n)
     if c > 1:  # nothing on another cube's view while the held one is short of its goal
         at_goal = env.cube_success(env.achieved_from_obs(obs), goal)
-        ok = ok.reshape(B, c, n) & ~finish_first(env.grasped(views), at_goal)[..., None]
+        ok = ok.reshape(B, c, n) & workable(env.grasped(views), at_goal, search.in_order)[..., None]
     return actions.reshape(B, c * n, -1), ok.reshape(B, c * n)
 
 
