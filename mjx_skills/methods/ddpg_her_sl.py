@@ -81,7 +81,7 @@ def make_behaviour(
     it searches only the first cube not at its goal (`two_objects.workable`). Each cube's tree aims at
     its goal moved `cfg.goal_clearance` clear of the other cubes (`clear_goals`)."""
     eps = epsilon(cfg, epoch, success)
-    n = env.n_objects
+    n, in_order = env.n_objects, cfg.in_order  # (in_order acts where n > 1, as goal_clearance)
     scored = env.cube_view if n > 1 else env  # what a search scores one cube's states with
     if own is None:
         own = lambda k, obs, goal: ddpg.explore(agent, k, obs, goal, ddpg_config)  # noqa: E731
@@ -122,7 +122,7 @@ def make_behaviour(
         where = explore[:, None]
         if n > 1:  # a cube already at its goal is left alone; a cube in hand is finished first
             at_goal = env.cube_success(state.achieved_goal, task_goal)  # (B, n)
-            where = where & ~at_goal & workable(env.grasped(views), at_goal, cfg.in_order)
+            where = where & ~at_goal & workable(env.grasped(views), at_goal, in_order)
         obstacles = ps.obstacles if cfg.stall_memory else None
         aimed = clear_goals(env, obs, task_goal, cfg.goal_clearance)  # (B, n, 3)
         found = lookahead.search_where(lib, cfg, scored, where.reshape(-1),
