@@ -17,6 +17,7 @@ VARIANTS = {
     "two_objects_fast_pick_move_two": "step-wise reward",
     "two_objects_fast_goal_start_clear": "step-wise reward, goal starts 0.5, clear goals",
     "two_objects_fast_in_order": "step-wise reward, goal starts 0.5, clear goals, in order",
+    "two_objects_fast_deep_sets": "step-wise reward, goal starts 0.5, clear goals, deep sets",
 }
 """DDPG+HER+SL+Fast on two_in_container with the options of docs/simulation.md (their own
 experiments), by experiment: what the method column adds to the method's name."""
@@ -35,7 +36,10 @@ INTRO = (
     "it, moved 5 cm clear of the other cube: `--search.goal-clearance 0.05`, docs/methods.md) "
     "in `two_objects_fast_goal_start_clear.toml`; with the explorers working on the cubes in "
     "one order besides, the first not at its goal (`--search.in-order`), in "
-    "`two_objects_fast_in_order.toml`), the skill library "
+    "`two_objects_fast_in_order.toml`; with the step-wise reward, goal starts, clear goals and "
+    "actor and critic as deep sets over the cubes' views (`--ddpg.architecture deep_sets`) "
+    "in `two_objects_fast_deep_sets.toml`), "
+    "the skill library "
     "SL1 trained with one cube and not retrained (its skills act on either cube through the "
     "scene's projection, docs/methods.md). Success needs both "
     "cubes at their goals; 'cubes at their goals' is the share of the two cubes there at "
