@@ -12,6 +12,17 @@ import jax
 import jax.numpy as jnp
 
 
+def _hidden_layers(x: jax.Array, widths: tuple[int, ...], layer_norm: bool) -> jax.Array:
+    """Dense -> [LayerNorm] -> ReLU per width, made inside the calling module's compact
+    method (so the layers are its own: Dense_0, LayerNorm_0, ...)."""
+    for width in widths:
+        x = nn.Dense(width)(x)
+        if layer_norm:
+            x = nn.LayerNorm()(x)
+        x = nn.relu(x)
+    return x
+
+
 class MLP(nn.Module):
     """(..., in) -> (..., out_dim): Dense -> [LayerNorm] -> ReLU per hidden layer, then Dense."""
 
@@ -21,11 +32,7 @@ class MLP(nn.Module):
 
     @nn.compact
     def __call__(self, x: jax.Array) -> jax.Array:
-        for width in self.hidden:
-            x = nn.Dense(width)(x)
-            if self.layer_norm:
-                x = nn.LayerNorm()(x)
-            x = nn.relu(x)
+        x = _hidden_layers(x, self.hidden, self.layer_norm)  # before the last Dense: its name
         return nn.Dense(self.out_dim)(x)
 
 
@@ -41,11 +48,7 @@ class DeepSet(nn.Module):
 
     @nn.compact
     def __call__(self, x: jax.Array) -> jax.Array:
-        for width in self.hidden[:-1]:
-            x = nn.Dense(width)(x)
-            if self.layer_norm:
-                x = nn.LayerNorm()(x)
-            x = nn.relu(x)
+        x = _hidden_layers(x, self.hidden[:-1], self.layer_norm)
         return MLP(self.hidden[-1:], self.layer_norm, self.out_dim)(x.sum(axis=-2))
 
 

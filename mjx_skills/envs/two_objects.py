@@ -24,6 +24,9 @@ ONE = 25
 _CUBE_1 = np.array([3, 4, 5, 6, 7, 8, 11, 12, 13, 14, 15, 16, 17, 18, 19])
 """Cube 1's entries of the one-cube observation (position, offset, rotation, velocities);
 cube 2's follow the one-cube observation in the same order."""
+_VIEW_2 = np.arange(ONE)
+_VIEW_2[_CUBE_1] = ONE + np.arange(len(_CUBE_1))
+"""The two-cube observation's indices of cube 2's view, (gripper, cube 2): `project`."""
 MIN_APART = 0.07
 """Starts and goals of the two cubes keep their centres this far apart (m, xy)."""
 
@@ -42,9 +45,7 @@ def view_indices(env) -> tuple[tuple[int, ...], ...]:
     `nets.Views`): obs[..., view_indices(env)[k]] is `object_views(env, obs)[..., k, :]`."""
     if env.n_objects == 1:
         return (tuple(range(env.obs_dim)),)
-    other = np.arange(ONE)
-    other[_CUBE_1] = ONE + np.arange(len(_CUBE_1))
-    return tuple(range(ONE)), tuple(int(i) for i in other)
+    return tuple(range(ONE)), tuple(int(i) for i in _VIEW_2)
 
 
 def finish_first(held: jax.Array, at_goal: jax.Array) -> jax.Array:
@@ -77,7 +78,7 @@ def clear_goals(env, obs: jax.Array, goal: jax.Array, clearance: float) -> jax.A
     aimed = []
     for k in range(n):
         g = goals[..., k, :]
-        for j in set(range(n)) - {k}:
+        for j in [i for i in range(n) if i != k]:
             cube = cubes[..., j, :]
             side = _unit_xy(cubes[..., k, :] - cube, jnp.array([1.0, 0.0, 0.0]))
             off = _unit_xy(g - cube, side)
@@ -149,8 +150,7 @@ class TwoObjects(BaxterEnv):
 
     def project(self, obs: jax.Array, k: int | jax.Array) -> jax.Array:
         """(..., 40) -> (..., 25): the scene as (gripper, cube k), the one-cube observation."""
-        other = obs[..., :ONE].at[..., _CUBE_1].set(obs[..., ONE:])
-        return jnp.where(jnp.asarray(k) == 1, other, obs[..., :ONE])
+        return jnp.where(jnp.asarray(k) == 1, obs[..., _VIEW_2], obs[..., :ONE])
 
     def grasped(self, obs):
         """Either cube held (a one-cube observation: that cube)."""

@@ -78,10 +78,12 @@ def make_behaviour(
     dropped the first: no episode of its 100 epochs on pick_move_two put both cubes at
     their goals). Transfer is allowed only on a view whose cube is held
     (`SkillLibrary.allowed`), so it only ever moves the held cube. With `cfg.in_order`
-    it searches only the first cube not at its goal (`two_objects.workable`). Each cube's tree aims at
-    its goal moved `cfg.goal_clearance` clear of the other cubes (`clear_goals`)."""
+    it searches only the first cube not at its goal (`two_objects.workable`). Each cube's
+    tree aims at its goal moved `cfg.goal_clearance` clear of the other cubes
+    (`clear_goals`)."""
     eps = epsilon(cfg, epoch, success)
-    n, in_order = env.n_objects, cfg.in_order  # (in_order acts where n > 1, as goal_clearance)
+    n = env.n_objects
+    in_order = cfg.in_order  # read for every task, as goal_clearance; both act where n > 1
     scored = env.cube_view if n > 1 else env  # what a search scores one cube's states with
     if own is None:
         own = lambda k, obs, goal: ddpg.explore(agent, k, obs, goal, ddpg_config)  # noqa: E731
