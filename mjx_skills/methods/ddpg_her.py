@@ -19,7 +19,8 @@ from mjx_skills.envs.two_objects import view_indices
 def make_ddpg_her(env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig) -> Learner[DDPGState, None]:
     """Flat DDPG + HER: Gaussian / uniform exploration around the policy, HER relabelling."""
 
-    views = view_indices(env)  # read by deep_sets only (`ddpg.init`)
+    # The cubes' views, for deep sets only: a task without a Baxter scene (no `n_objects`) has none.
+    views = view_indices(env) if ddpg.architecture == "deep_sets" else None
 
     def init(key: jax.Array) -> ddpg_agent.DDPGState:
         return ddpg_agent.init(key, env.obs_dim, env.goal_dim, env.action_dim, ddpg, views=views)
