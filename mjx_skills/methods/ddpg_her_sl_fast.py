@@ -125,7 +125,7 @@ def propose_any(
     B, c = views.shape[:2]
     aimed = clear_goals(env, obs, goal, search.goal_clearance).reshape(B * c, -1)
     actions, ok = propose(lib, search, views.reshape(B * c, -1), aimed, key, n)
-    if c > 1:  # nothing on another cube's view while the held one is short of its goal
+    if c > 1:  # only on the cubes the explorers may work on (the held one first; in order)
         at_goal = env.cube_success(env.achieved_from_obs(obs), goal)
         ok = ok.reshape(B, c, n) & workable(env.grasped(views), at_goal, search.in_order)[..., None]
     return actions.reshape(B, c * n, -1), ok.reshape(B, c * n)
