@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import io
 import json
 import sys
 import time
@@ -27,8 +28,11 @@ import numpy as np
 import tyro
 from tqdm.auto import tqdm
 
-from mjx_skills.config import DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
+from mjx_skills.config import SEED_LIMIT, DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
 from mjx_skills.core import compile_cache, rollout
+from mjx_skills.core.files import write_text_atomic
+from mjx_skills.core.paths import check_writable_path
+from mjx_skills.core.precision import use_float32
 from mjx_skills.envs.registry import SKILLS
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.skills import fit, library
@@ -215,14 +219,16 @@ def _position_error_cm(predicted: np.ndarray, actual: np.ndarray, pos: slice) ->
 def build(args: SkillsArgs, work: Path | None = None) -> Path:
     """Every phase -> the library directory. `work`: where the skills' training runs live
     (default beside the library); libraries sharing it share their trained skills."""
-    out = Path(args.out).resolve()
+    out = check_writable_path(args.out)
+    if args.config.seed + 10_000 >= SEED_LIMIT:  # skill_success's keys: 10_000 + seed
+        raise ValueError("invalid config value for 'seed': must be < 2**32 - 10000 (keys)")
     if out.exists():
         raise FileExistsError(
             f"{out} exists; a library is never overwritten (choose another --out, or delete it)"
         )
     library.remove_partials(out)
     made_by = library.provenance()  # the code as it was loaded, before a long build
-    work = work or out.with_name(f".{out.name}.work")
+    work = check_writable_path(work or out.with_name(f".{out.name}.work"), "--work")
     config, timings, success, agents, runs, data = args.config, {}, {}, [], {}, {}
     for name in SKILLS:
         t0 = time.time()
@@ -279,15 +285,16 @@ def write_table(directory: Path | list[Path], path: Path = TABLE) -> Path:
     rows = [r for d in ([directory] if isinstance(directory, Path) else directory)
             for r in table_rows(d)]  # fmt: skip
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    return path
+    table = io.StringIO(newline="")
+    w = csv.DictWriter(table, fieldnames=list(rows[0]))
+    w.writeheader()
+    w.writerows(rows)
+    return write_text_atomic(path, table.getvalue())  # whole or not at all
 
 
 def main(argv: list[str] | None = None) -> None:
     compile_cache.enable()
+    use_float32()
     try:
         args = tyro.cli(SkillsArgs, args=sys.argv[1:] if argv is None else argv,
                         description=__doc__)  # fmt: skip

@@ -9,8 +9,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import typing
 from typing import Any, Literal
+
+SEED_LIMIT = 2**32  # seeds are 32-bit JAX keys: s and s + 2**32 would be one stream
 
 
 def _check(cond: bool, field: str, why: str) -> None:
@@ -19,10 +22,12 @@ def _check(cond: bool, field: str, why: str) -> None:
 
 
 def check_numbers(config: Any) -> None:
-    """Every number of every field of `config` (each element of a tuple field too) is finite
-    and >= 0: no field of any config class takes NaN, an infinity or a negative value."""
+    """Every field of `config` has its annotated type (`checked_value`), and every number (of
+    a tuple too) is finite and >= 0: no config field takes NaN, an infinity or a negative."""
+    hints = typing.get_type_hints(type(config))
     for field in dataclasses.fields(config):
-        value = getattr(config, field.name)
+        value = checked_value(field.name, getattr(config, field.name), hints[field.name])
+        object.__setattr__(config, field.name, value)
         for v in value if isinstance(value, tuple) else (value,):
             if isinstance(v, bool) or not isinstance(v, int | float):
                 continue
@@ -30,23 +35,26 @@ def check_numbers(config: Any) -> None:
             _check(v >= 0, field.name, f"must be >= 0, got {v}")
 
 
-def from_dict(cls: type, raw: dict[str, Any]) -> Any:
-    """Rebuild a (nested) config dataclass from its `dataclasses.asdict` form, as read back
-    from JSON: lists become tuples, nested dataclasses are rebuilt, unknown keys are refused."""
-    hints = typing.get_type_hints(cls)
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(raw) - names)
-    if unknown:
-        raise ValueError(f"{cls.__name__} has no field(s) {unknown}; valid: {sorted(names)}")
-    values = {}
-    for name, value in raw.items():
-        kind = hints[name]
-        if dataclasses.is_dataclass(kind) and isinstance(value, dict):
-            value = from_dict(kind, value)
-        elif isinstance(value, list):
-            value = tuple(value)
-        values[name] = value
-    return cls(**values)
+def checked_value(field: str, value: Any, hint: Any) -> Any:
+    """`value` as a field annotated `hint` holds it (ints as floats, lists as tuples), or
+    ValueError naming `field`: a float for an int (1e6 for 1000000), a string for a number."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin is Literal:
+        _check(value in args, field, f"valid: {', '.join(map(str, args))}; got {value!r}")
+        return value
+    if origin is tuple:
+        _check(isinstance(value, tuple | list), field, f"must be a list, got {value!r}")
+        items = args[:1] * len(value) if args[-1:] == (Ellipsis,) else args
+        _check(len(items) == len(value), field, f"must hold {len(items)} values, got {value!r}")
+        return tuple(checked_value(field, v, h) for v, h in zip(value, items, strict=True))
+    kinds = {int: (numbers.Integral, "an int"), float: (numbers.Real, "a number")}
+    kinds |= {bool: (bool, "true or false"), str: (str, "a string")}
+    if hint in kinds:
+        kind, name = kinds[hint]
+        ok = isinstance(value, kind) and (hint is bool or not isinstance(value, bool))
+        _check(ok, field, f"must be {name}, got {value!r} ({type(value).__name__})")
+        return hint(value)
+    return value
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,15 +113,11 @@ class DDPGConfig:
         _check(0.0 <= self.random_eps <= 1.0, "random_eps", "must lie in [0, 1]")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         _check(self.norm_eps > 0, "norm_eps", "must be > 0 (the floor of a std)")
-        strategies = ("future", "final", "episode", "none")
-        _check(self.her_strategy in strategies, "her_strategy", f"one of {', '.join(strategies)}")
-        _check(self.architecture in ("mlp", "deep_sets"), "architecture", "valid: mlp, deep_sets")
         _check(self.architecture == "mlp" or len(self.hidden) > 1, "hidden", "deep_sets: >= 2")
 
 
 Physics = Literal["auto", "native", "mjx"]
-PHYSICS = typing.get_args(Physics)
-"""The physics backends (`envs.physics.make_backend`): the names are defined here, once."""
+PHYSICS = typing.get_args(Physics)  # the backends (`envs.physics.make_backend`), named once
 Library = Literal["SL1", "SL2", "SL3"]
 LIBRARIES = typing.get_args(Library)
 """The thesis's skill libraries by name (their skills: `skills.library.LIBRARIES`)."""
@@ -168,7 +172,6 @@ class EnvConfig:
 
     def __post_init__(self) -> None:
         check_numbers(self)
-        _check(self.physics in PHYSICS, "physics", f"must be one of {', '.join(PHYSICS)}")
         _check(self.timestep > 0, "timestep", "must be > 0")
         for name in ("n_substeps", "solver_iterations", "ls_iterations", "settle_substeps",
                      "grasp_settle_substeps"):  # fmt: skip
@@ -215,6 +218,7 @@ class TrainConfig:
     def __post_init__(self) -> None:
         check_numbers(self)
         _check(bool(self.task), "task", "must name an env")
+        _check(self.seed + self.seeds <= SEED_LIMIT, "seed", "seed + seeds over 2**32 (keys)")
         for name in ("epochs", "seeds", "envs", "cycles", "eval_episodes", "checkpoint_every",
                      "updates_per_cycle", "replay_capacity"):  # fmt: skip
             _check(getattr(self, name) >= 1, name, "must be >= 1")
@@ -279,7 +283,6 @@ class LibraryConfig:
             _check(len(widths) > 0 and all(w > 0 for w in widths), name, "need >= 1 positive width")
         for name in ("model_lr", "classifier_lr"):
             _check(getattr(self, name) > 0, name, "must be > 0")
-        _check(self.anchor in ("start", "goal"), "anchor", "valid: start, goal")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -358,7 +361,6 @@ class SearchConfig:
         _check(0.0 <= lo <= hi, "transit_height", "need 0 <= low <= high")
         _check(0.0 <= self.waypoint_share <= 1.0, "waypoint_share", "must lie in [0, 1]")
         _check(0.0 < self.search_chunk <= 1.0, "search_chunk", "must lie in (0, 1]")
-        _check(self.library in LIBRARIES, "library", f"valid: {', '.join(LIBRARIES)}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -391,8 +393,6 @@ class PASConfig:
 
     def __post_init__(self) -> None:
         check_numbers(self)
-        _check(self.library in LIBRARIES, "library", f"valid: {', '.join(LIBRARIES)}")
-        _check(self.critic in ("joint", "per_skill"), "critic", "valid: joint, per_skill")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         for name in ("skill_steps", "updates_per_cycle"):
             _check(getattr(self, name) >= 1, name, "must be >= 1")

@@ -30,6 +30,7 @@ from mjx_skills.agents import ddpg
 from mjx_skills.cli_args import run_parser
 from mjx_skills.core import compile_cache
 from mjx_skills.core.learner import Learner
+from mjx_skills.core.precision import use_float32
 from mjx_skills.envs.registry import make
 from mjx_skills.training.checkpoint import Checkpoints
 from mjx_skills.training.epoch import init_carry, make_evaluate, over_seeds, seed_keys
@@ -195,6 +196,7 @@ def parse_args(argv: list[str] | None):
 
 def main(argv: list[str] | None = None) -> None:
     compile_cache.enable()
+    use_float32()
     args = parse_args(argv)
     try:
         rows = evaluate_run(args.run_dir, args.episodes, args.physics, args.seed)

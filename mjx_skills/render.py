@@ -12,8 +12,10 @@ frame per env step (0.15 s of simulated time), each episode's start state includ
 OpenGL: MuJoCo picks its GL backend from MUJOCO_GL when it is first imported. Without a
 display, use MUJOCO_GL=egl (Debian packages libegl1, libegl-mesa0 and libgl1-mesa-dri: a
 GPU's driver or Mesa's software renderer) or MUJOCO_GL=osmesa (libosmesa6; software only).
-This command sets MUJOCO_GL=egl when it is unset and keeps a value you set; when no GL
-context can be made it says so in one line and exits with status 1.
+Before it imports mujoco this command tries, each in a short subprocess, the MUJOCO_GL you
+set and then egl, osmesa and glfw (only these when unset), and uses the first that draws,
+with a warning when it is not the one you set (or, unset, not egl); when none can make a GL
+context it says so in one line and exits with status 1.
 
 Output: .gif (Pillow; identical consecutive frames, e.g. an arm at rest, are stored once with
 their durations added, so the playing time stays exact) or .mp4 (needs an ffmpeg executable,
@@ -25,6 +27,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 import warnings
 from pathlib import Path
 from typing import Any
@@ -35,6 +38,7 @@ import numpy as np
 
 from mjx_skills.cli_args import positive_int, run_parser
 from mjx_skills.core import compile_cache, rollout
+from mjx_skills.core.precision import use_float32
 
 # Nothing imported above imports mujoco: it picks its GL backend on its first import, and
 # `main` sets MUJOCO_GL before that. Modules that import mujoco are imported in functions.
@@ -67,6 +71,58 @@ def output_path(run_dir: Path, out: Path | None, overwrite: bool) -> Path:
     return out
 
 
+GL_BACKENDS = ("egl", "osmesa", "glfw")
+"""MuJoCo's GL backends for offscreen drawing on Linux, in the order they are tried."""
+
+GL_FIX = (
+    "use MUJOCO_GL=egl (Debian: libegl1 libegl-mesa0 libgl1-mesa-dri) or "
+    "MUJOCO_GL=osmesa (Debian: libosmesa6)"
+)
+_GL_PROBE = """
+import warnings; warnings.simplefilter("ignore")
+import mujoco
+mujoco.Renderer(mujoco.MjModel.from_xml_string("<mujoco/>"), 8, 8).render()
+"""
+
+
+def probe_gl(backend: str, timeout: float = 60.0) -> str | None:
+    """None if a fresh Python with MUJOCO_GL=`backend` draws offscreen, else why, in one line
+    (a subprocess: MuJoCo fixes its backend at its first import, which cannot be undone)."""
+    env = {**os.environ, "MUJOCO_GL": backend}
+    command = [sys.executable, "-c", _GL_PROBE]
+    try:
+        done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return f"no frame within {timeout:g} s"
+    except OSError as err:
+        return str(err)
+    if done.returncode == 0:
+        return None
+    return (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
+
+
+def choose_gl() -> str:
+    """Set MUJOCO_GL to the first backend that draws (the one set first, then `GL_BACKENDS`)
+    and return it, warning when it is not the one set (unset: not the first). RuntimeError
+    in one line, MUJOCO_GL as it was, when none draws. Call it before mujoco is imported."""
+    wanted = os.environ.get("MUJOCO_GL", "")
+    order = [wanted] * bool(wanted) + [b for b in GL_BACKENDS if b != wanted.strip().lower()]
+    failed = []
+    for backend in order:
+        why = probe_gl(backend)
+        if why is None:
+            break
+        failed.append(f"MUJOCO_GL={backend!r}: {why}")
+    else:
+        raise RuntimeError(
+            f"no OpenGL context for offscreen rendering ({'; '.join(failed)}); " + GL_FIX
+        )
+    if failed:
+        warnings.warn(f"{'; '.join(failed)}; drawing with MUJOCO_GL={backend!r}", stacklevel=2)
+    os.environ["MUJOCO_GL"] = backend
+    return backend
+
+
 def gl_error() -> str | None:
     """None if an offscreen OpenGL context can be made, else why not, in one line."""
     try:
@@ -80,8 +136,7 @@ def gl_error() -> str | None:
         why = (str(err).strip().splitlines() or [type(err).__name__])[0]
         return (
             f"no OpenGL context for offscreen rendering (MUJOCO_GL="
-            f"{os.environ.get('MUJOCO_GL', '')!r}: {why}); use MUJOCO_GL=egl (Debian: libegl1 "
-            "libegl-mesa0 libgl1-mesa-dri) or MUJOCO_GL=osmesa (Debian: libosmesa6)"
+            f"{os.environ.get('MUJOCO_GL', '')!r}: {why}); {GL_FIX}"
         )
     return None
 
@@ -121,8 +176,10 @@ def solved_only(qpos, grip, success) -> tuple[np.ndarray, np.ndarray]:
     success (n,) is set. ValueError when none is."""
     solved = np.asarray(success) > 0
     if not solved.any():
-        raise ValueError(f"none of the {len(solved)} episode(s) was solved; nothing to draw "
-                         "(try more --episodes)")  # fmt: skip
+        raise ValueError(
+            f"none of the {len(solved)} episode(s) was solved; nothing to draw "
+            "(try more --episodes)"
+        )
     return np.asarray(qpos)[solved], np.asarray(grip)[solved]
 
 
@@ -168,13 +225,11 @@ def write_video(path: Path, frames: np.ndarray, frame_s: float) -> None:
         images[0].save(path, save_all=True, append_images=images[1:], duration=frame_ms, loop=0)
         return
     height, width = frames.shape[1:3]
-    command = [
-        ffmpeg_executable() or "ffmpeg", "-loglevel", "error", "-y",
-        "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{width}x{height}",
-        "-r", f"{1 / frame_s:.6f}", "-i", "-",
-        # yuv420p (what players expect) needs even sides.
-        "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p", str(path),
-    ]  # fmt: skip
+    size, rate = f"{width}x{height}", f"{1 / frame_s:.6f}"
+    raw = ["-f", "rawvideo", "-pix_fmt", "rgb24", "-s", size, "-r", rate, "-i", "-"]
+    # yuv420p (what players expect) needs even sides.
+    encoded = ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p", str(path)]
+    command = [ffmpeg_executable() or "ffmpeg", "-loglevel", "error", "-y", *raw, *encoded]
     done = subprocess.run(command, input=frames.tobytes(), capture_output=True)
     if done.returncode != 0:
         why = (done.stderr.decode(errors="replace").strip().splitlines() or ["?"])[-1]
@@ -189,17 +244,25 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--height", type=positive_int, default=360)
     parser.add_argument("--camera", help="a camera of the model (default: a free view)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
-    parser.add_argument("--solved", action="store_true",
-                        help="draw only the episodes the policy solves (of the --episodes run; "
-                             "the line printed says how many)")  # fmt: skip
+    parser.add_argument(
+        "--solved",
+        action="store_true",
+        help="draw only the episodes the policy solves (of the --episodes run; "
+        "the line printed says how many)",
+    )
     return parser.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> None:
     args = parse_args(argv)
     out = output_path(args.run_dir, args.out, args.overwrite)
-    os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco's first import, below
     compile_cache.enable()
+    use_float32()
+    try:
+        if "mujoco" not in sys.modules:  # else its backend is fixed: gl_error says if it draws
+            choose_gl()  # before mujoco's first import, in gl_error
+    except RuntimeError as err:
+        raise SystemExit(f"error: {err}") from None
     problem = gl_error()
     if problem:
         raise SystemExit(f"error: {problem}")

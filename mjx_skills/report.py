@@ -32,9 +32,10 @@ from mjx_skills.analysis.claims import (
 )
 from mjx_skills.analysis.shorts import shorts
 from mjx_skills.config import LIBRARIES
+from mjx_skills.core.files import write_text_atomic
 from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.experiments import Cell, load_experiment
-from mjx_skills.training.metrics_log import read_metrics, wall_seconds
+from mjx_skills.training.metrics_log import wall_seconds
 
 DOC = Path("docs") / "results.md"
 README = Path("README.md")
@@ -58,7 +59,7 @@ class Results:
                 where = cells.stored(cell, store)
                 summary = None
                 if where is not None:
-                    metrics = self.metrics[cell.name] = read_metrics(where)
+                    metrics = self.metrics[cell.name] = cells.read_stored_metrics(where)
                     summary = stats.summarize(
                         stats.scores_from_rows(metrics), wall_s=wall_seconds(metrics)
                     )
@@ -374,7 +375,7 @@ def main(argv: list[str] | None = None) -> None:
         results = Results()
         outputs = {DOC: render(results, draw=not args.check),
                    README: with_headline(README.read_text(), results)}  # fmt: skip
-    except ValueError as err:  # a stored cell of another definition; no README block
+    except ValueError as err:  # a stored cell damaged or of another definition; no README block
         raise SystemExit(f"error: {err}") from None
     if args.check:
         stale = []
@@ -390,7 +391,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     DOC.parent.mkdir(parents=True, exist_ok=True)
     for path, text in outputs.items():
-        path.write_text(text)
+        write_text_atomic(path, text)
     print(f"wrote {DOC}, {FIGURES}/ and the README's results table")
 
 

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import json
 import socket
 import sys
@@ -41,6 +42,9 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
+from mjx_skills.cli_args import positive_int
+from mjx_skills.core.files import read_json, write_text_atomic
+from mjx_skills.core.paths import check_writable_path
 from mjx_skills.sweeps.experiments import Cell, Experiment, adhoc, load_experiment, names
 
 RESULTS = Path("experiments") / "results"
@@ -77,10 +81,12 @@ def run_cell(cell: Cell, cell_dir: str, progress: bool = True, store: str = str(
     or in a worker: imports JAX only here. A run in `cell_dir` made by another definition
     is refused with the fields that differ."""
     from mjx_skills.core import compile_cache
+    from mjx_skills.core.precision import use_float32
     from mjx_skills.sweeps import cells
     from mjx_skills.training.runner import RunArgs, train_run
 
     compile_cache.enable()
+    use_float32()
     run_dir = cell_run_dir(Path(cell_dir))
     if cell.samples:
         if finished(run_dir, cell):
@@ -112,7 +118,7 @@ def shorter_budget(run_dir: Path, cell: Cell) -> int | None:
 
     from mjx_skills.sweeps import cells
 
-    epochs = json.loads((run_dir / "config.json").read_text())["train"]["epochs"]
+    epochs = read_json(run_dir / "config.json")["train"]["epochs"]
     shorter = dataclasses.replace(cell, epochs=epochs)
     return epochs if epochs < cell.epochs and not cells.run_differences(run_dir, shorter) else None
 
@@ -166,12 +172,13 @@ def build_library(cell: Cell, cell_dir: Path, progress: bool) -> Path:
 
 
 def aggregate(experiment: str, cells: list[Cell], run_dirs: list[Path]) -> tuple[list, list]:
-    """-> (CSV rows: mean / std over seeds per epoch and cell, JSONL rows: every seed)."""
-    from mjx_skills.training.metrics_log import read_metrics
+    """-> (CSV rows: mean / std over seeds per epoch and cell, JSONL rows: every seed).
+    `run_dirs`: the stored cells, verified as read (ValueError naming a damaged file)."""
+    from mjx_skills.sweeps.cells import read_stored_metrics
 
     rows, per_seed = [], []
     for cell, run_dir in zip(cells, run_dirs, strict=True):
-        metrics = read_metrics(run_dir)
+        metrics = read_stored_metrics(run_dir)
         tag = {"experiment": experiment, "task": cell.task, "method": cell.method,
                "library": cell.library or "-"}  # fmt: skip
         per_seed += [{**tag, **m} for m in metrics]
@@ -187,13 +194,15 @@ def aggregate(experiment: str, cells: list[Cell], run_dirs: list[Path]) -> tuple
 
 
 def write_results(name: str, rows: list, per_seed: list, results: Path) -> tuple[Path, Path]:
+    """NAME.csv and NAME.jsonl in `results`, each written whole or not at all."""
     results.mkdir(parents=True, exist_ok=True)
     csv_path, jsonl_path = results / f"{name}.csv", results / f"{name}.jsonl"
-    with csv_path.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=CSV_FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
-    jsonl_path.write_text("".join(json.dumps(r) + "\n" for r in per_seed))
+    table = io.StringIO(newline="")
+    writer = csv.DictWriter(table, fieldnames=CSV_FIELDS)
+    writer.writeheader()
+    writer.writerows(rows)
+    write_text_atomic(csv_path, table.getvalue())
+    write_text_atomic(jsonl_path, "".join(json.dumps(r) + "\n" for r in per_seed))
     return csv_path, jsonl_path
 
 
@@ -298,14 +307,16 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--methods", nargs="+", help="ad-hoc grid: methods")
     p.add_argument("--libraries", nargs="+", help="ad-hoc grid: SL1 / SL2 / SL3 (library methods)")
     p.add_argument("--name", default="adhoc", help="ad-hoc grid: the results' name")
-    p.add_argument("--seeds", type=int, help="seeds per cell (overrides the experiment's)")
-    p.add_argument("--epochs", type=int, help="epochs per cell (overrides the experiment's)")
+    p.add_argument("--seeds", type=positive_int, help="seeds per cell (overrides the experiment's)")
+    p.add_argument(
+        "--epochs", type=positive_int, help="epochs per cell (overrides the experiment's)"
+    )
     p.add_argument("--sweep-dir", type=Path, help="where cells run (default runs/sweeps/NAME)")
     p.add_argument("--results", type=Path, default=RESULTS, help="where NAME.csv goes")
     p.add_argument("--overwrite", action="store_true", help="replace existing NAME.csv/.jsonl")
     p.add_argument("--ray", metavar="ADDRESS", help="run cells as Ray tasks: 'local' or HOST:PORT")
     p.add_argument("--ray-address", dest="ray", help=argparse.SUPPRESS)
-    p.add_argument("--jobs", type=int, default=None,
+    p.add_argument("--jobs", type=positive_int, default=None,
                    help="cells at once, each in its own worker process "
                    "(default: one per usable core; library experiments: 1)")  # fmt: skip
     p.add_argument("--pin", action="store_true",
@@ -328,8 +339,6 @@ def main(argv: list[str] | None = None) -> None:
         else:
             raise ValueError("give --experiment NAME (see --list) or --tasks ... --methods ...")
         exp = exp.with_budget(seeds=args.seeds, epochs=args.epochs)
-        if args.jobs is not None and args.jobs < 1:
-            raise ValueError(f"--jobs must be >= 1, got {args.jobs}")
     except ValueError as err:
         raise SystemExit(f"error: {err}") from None
     from mjx_skills.core.workers import usable_cores
@@ -341,6 +350,10 @@ def main(argv: list[str] | None = None) -> None:
         print(cost.report(exp, jobs))
         return
     sweep_dir = args.sweep_dir or Path("runs") / "sweeps" / exp.name
+    try:
+        check_writable_path(sweep_dir, "--sweep-dir")
+    except ValueError as err:
+        raise SystemExit(f"error: {err}") from None
     try:
         paths = run_sweep(exp, sweep_dir, args.results, args.overwrite, args.ray,
                           not args.no_progress, jobs, args.pin)  # fmt: skip

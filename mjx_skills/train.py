@@ -19,7 +19,9 @@ import tyro
 from mjx_skills import methods
 from mjx_skills.config import EnvConfig, TrainConfig
 from mjx_skills.core import compile_cache
-from mjx_skills.training.runner import RunArgs, summary, train_run
+from mjx_skills.core.precision import use_float32
+from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.runner import RunArgs, load_config, summary, train_run
 
 DEFAULT_METHOD = "ddpg_her"
 
@@ -91,8 +93,13 @@ def parse(argv: list[str]) -> RunArgs:
     return RunArgs(train=parsed.train, method=chosen, env=parsed.env, options=options)
 
 
+INTERRUPTED = 130
+"""Exit status of a run stopped by Ctrl-C or SIGTERM before its last epoch (128 + SIGINT)."""
+
+
 def main(argv: list[str] | None = None) -> None:
     compile_cache.enable()
+    use_float32()
     try:
         args = parse(sys.argv[1:] if argv is None else argv)
     except ValueError as err:  # an invalid config value, raised while tyro builds it
@@ -102,7 +109,17 @@ def main(argv: list[str] | None = None) -> None:
     except (FloatingPointError, FileNotFoundError, ValueError, NotImplementedError) as err:
         # Diverged losses, a bad --resume directory or a checkpoint of another run.
         raise SystemExit(f"error: {err}") from None
+    except KeyboardInterrupt:  # before the first epoch (building, compiling): nothing to lose
+        print("interrupted before the first epoch", file=sys.stderr)
+        raise SystemExit(INTERRUPTED) from None
     print(summary(run_dir))
+    if logged_epochs(run_dir) < load_config(run_dir).train.epochs:
+        raise SystemExit(INTERRUPTED)  # stopped by a signal: it said where it saved
+
+
+def logged_epochs(run_dir) -> int:
+    """The last epoch a run logged (0: none)."""
+    return max((row["epoch"] for row in read_metrics(run_dir)), default=0)
 
 
 if __name__ == "__main__":

@@ -2,6 +2,7 @@
 same starts on every backend, a video whose frames show the arm, one-line errors."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -18,8 +19,15 @@ from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, save_config, train_and_keep
 
 # test_train's tiny budget: the persistent compile cache shares its compiled epoch.
-TINY = dict(task="transit", envs=2, cycles=2, updates_per_cycle=5, eval_episodes=2,
-            replay_capacity=2000, progress=False)  # fmt: skip
+TINY = dict(
+    task="transit",
+    envs=2,
+    cycles=2,
+    updates_per_cycle=5,
+    eval_episodes=2,
+    replay_capacity=2000,
+    progress=False,
+)
 EPISODES = 3
 SEED = 5
 
@@ -104,19 +112,51 @@ def test_render_refuses_existing_files_and_other_formats(trained, tmp_path):
     assert existing.read_bytes() == b"keep me"
 
 
-def test_render_writes_a_gif_of_the_episode(trained, tmp_path, env_factory):
+GL_DRAWS = "import mujoco; mujoco.Renderer(mujoco.MjModel.from_xml_string('<mujoco/>'), 8, 8)"
+
+
+def some_gl_backend_draws() -> bool:
+    for backend in ("egl", "osmesa", "glfw"):
+        env = {**os.environ, "MUJOCO_GL": backend}
+        if (
+            subprocess.run(
+                [sys.executable, "-c", GL_DRAWS], env=env, capture_output=True
+            ).returncode
+            == 0
+        ):
+            return True
+    return False
+
+
+@pytest.mark.parametrize("gl", [None, "bogus"], ids=["MUJOCO_GL as set", "MUJOCO_GL=bogus"])
+def test_render_writes_a_gif_of_the_episode(trained, tmp_path, env_factory, gl):
+    """A MUJOCO_GL that cannot draw (bogus, or egl without EGL) stopped the command: now it
+    warns and draws with a backend that works."""
     from PIL import Image, ImageSequence
 
     run_dir, _ = trained
     out = tmp_path / "episode.gif"
     # A fresh process: this one imported mujoco (conftest) before MUJOCO_GL could be set,
     # and MuJoCo picks its GL backend on import. Whether GL works is what render says.
-    command = [sys.executable, "-m", "mjx_skills.render", str(run_dir), "--out", str(out),
-               "--width", "64", "--height", "64"]  # fmt: skip
-    done = subprocess.run(command, capture_output=True, text=True, timeout=600)
-    if done.returncode != 0 and "no OpenGL context" in done.stderr:
+    command = [
+        sys.executable,
+        "-m",
+        "mjx_skills.render",
+        str(run_dir),
+        "--out",
+        str(out),
+        "--width",
+        "64",
+        "--height",
+        "64",
+    ]
+    env = {**os.environ, "MUJOCO_GL": gl} if gl else None
+    done = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
+    if done.returncode != 0 and "no OpenGL context" in done.stderr and not some_gl_backend_draws():
         pytest.skip(done.stderr.strip())
     assert done.returncode == 0, done.stderr
+    if gl:
+        assert f"MUJOCO_GL={gl!r}" in done.stderr and "drawing with MUJOCO_GL=" in done.stderr
     steps = env_factory("transit").episode_length
     with Image.open(out) as gif:
         frames = [np.asarray(f.convert("RGB"), np.float32) for f in ImageSequence.Iterator(gif)]

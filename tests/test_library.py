@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 
 import chex
 import jax
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 
 from mjx_skills.config import DDPGConfig, LibraryConfig
+from mjx_skills.core import files
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL
 from mjx_skills.skills import fit, library
 
@@ -220,6 +222,39 @@ def test_save_load_round_trip_and_refusals(constructed, tmp_path):
     (path / "manifest.json").unlink()
     with pytest.raises(ValueError, match="half-written"):
         library.load(path)
+
+
+def test_a_library_whose_arrays_changed_on_disk_is_refused(constructed, tmp_path, caplog):
+    """A flipped byte in an array file still decodes, to other numbers: the digest that
+    `save` put in the manifest refuses them, naming the library; a library saved before
+    digests were recorded loads with a warning."""
+    path = library.save(constructed, tmp_path / "lib", {"memory_size": 4})
+    assert library.read_manifest(path)["digest"] == files.tree_sha256(constructed)
+    stored = [p for p in (path / "arrays").rglob("*") if p.is_file()]
+    data = max(stored, key=lambda p: p.stat().st_size)
+    good = data.read_bytes()
+    damaged = bytearray(good)
+    damaged[len(good) // 2] ^= 0xFF
+    data.write_bytes(bytes(damaged))
+    with pytest.raises(ValueError, match=rf"{path}: the library's arrays are damaged"):
+        library.load(path)
+    data.write_bytes(good)
+    raw = json.loads((path / "manifest.json").read_text())
+    del raw["digest"]
+    (path / "manifest.json").write_text(json.dumps(raw))
+    with caplog.at_level(logging.WARNING):
+        loaded, _ = library.load(path)
+    chex.assert_trees_all_equal(loaded, constructed)
+    assert "no digest" in caplog.text
+
+
+def test_the_committed_libraries_carry_the_digest_of_their_arrays(caplog):
+    for directory in sorted(library.DEFAULT_DIR.parent.glob("skill_library*")):
+        if (directory / "manifest.json").exists():
+            assert "digest" in library.read_manifest(directory), directory
+            with caplog.at_level(logging.WARNING):
+                library.load(directory)  # verified: raises if its arrays differ
+            assert "no digest" not in caplog.text, directory
 
 
 @pytest.mark.parametrize("rows", [10, 600, 5000])

@@ -133,6 +133,20 @@ def test_corrupt_checkpoint_falls_back_to_the_previous_one(tmp_path):
     assert (run_dir / "checkpoints" / "3").exists()  # epoch 3 trained again and saved
 
 
+def test_a_run_killed_mid_append_resumes_from_the_command_line(tmp_path):
+    """A crash left metrics.jsonl's last line half written: `train --resume RUN` drops it
+    (it used to exit on a JSON error) and the log ends with whole lines only."""
+    from mjx_skills import train
+
+    run_dir = train_run(tiny_args(tmp_path, epochs=3, checkpoint_every=1), stop_after=2)
+    with (run_dir / "metrics.jsonl").open("a") as f:
+        f.write('{"epoch": 3, "seed": 0, "eval_succ')
+    train.main(["--resume", str(run_dir)])
+    text = (run_dir / "metrics.jsonl").read_text()
+    assert text.endswith("}\n")
+    assert [json.loads(line)["epoch"] for line in text.splitlines()] == [1, 2, 3]
+
+
 def test_bad_input_names_the_field(tmp_path):
     with pytest.raises(ValueError, match="valid: transit, grasp"):
         train_run(tiny_args(tmp_path, task="stack"))

@@ -15,6 +15,7 @@ load models under mujoco 4.0.0 (an assertion on joint types).
 from __future__ import annotations
 
 import os
+import warnings
 
 import gymnasium
 import jax
@@ -46,20 +47,54 @@ def _check_not_forked() -> None:
         )
 
 
+def _check_render_mode(task: str, mode: object) -> None:
+    """ValueError for a render mode this env cannot honour when built directly.
+
+    gymnasium.make passes any other mode to the constructor with only a warning (and fails
+    on a non-string), so refusing it here makes both ways of building the env refuse it.
+    'human' and 'rgb_array_list' gymnasium.make accepts by building the env with 'rgb_array'
+    and wrapping it (HumanRendering, RenderCollection): built directly, nothing would wrap
+    it and render() would return None without a word, so they are refused, naming the way
+    that works."""
+    modes = BaxterGymEnv.metadata["render_modes"]
+    if mode is None or (isinstance(mode, str) and mode in modes):
+        return
+    listed = isinstance(mode, str) and mode.endswith("_list") and mode[: -len("_list")] in modes
+    if mode == "human" or listed:
+        wrapper = "HumanRendering" if mode == "human" else "RenderCollection"
+        raise ValueError(
+            f"render_mode={mode!r}: this env draws offscreen only ({modes}); "
+            f"gymnasium.make({gym_id(task)!r}, render_mode={mode!r}) wraps it in "
+            f"gymnasium.wrappers.{wrapper}, or wrap it yourself: gymnasium.wrappers.{wrapper}"
+            "(BaxterGymEnv(..., render_mode='rgb_array'))"
+        )
+    raise ValueError(
+        f"render_mode={mode!r} is not a render mode of this env; valid: None, "
+        + ", ".join(repr(m) for m in modes)
+        + " (and through gymnasium.make: 'human', 'rgb_array_list')"
+    )
+
+
 class BaxterGymEnv(gymnasium.Env):
     """One Baxter task as a gymnasium goal env. `config`: EnvConfig fields (e.g.
     episode_length=10); the env truncates its episodes after the task's episode length
-    itself, with or without gymnasium's TimeLimit."""
+    itself, with or without gymnasium's TimeLimit. An unknown task, EnvConfig field or
+    render mode is a ValueError listing the valid ones (`_check_render_mode` says why
+    'human' is refused here but accepted by gymnasium.make)."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 7}
 
     def __init__(self, task: str = "pick_move", render_mode: str | None = None, **config):
         _check_not_forked()
-        self.task = make(task, EnvConfig(physics="native", **config))
+        _check_render_mode(task, render_mode)
+        if config.pop("physics", "native") != "native":
+            raise ValueError("physics: the gym adapter steps native MuJoCo; leave it unset")
+        self.task = make(task, EnvConfig(physics="native"), **config)
         self.model = self.task.model
         self.data = mujoco.MjData(self.model)
         self.render_mode = render_mode
         self._renderer = None
+        self._drawn = None  # the MjData render() draws: a copy of `data`, forwarded
         t = self.task
         self._reset = jax.jit(t.reset)
         # One jitted call before and one after the substeps: each call from Python pays a
@@ -119,6 +154,9 @@ class BaxterGymEnv(gymnasium.Env):
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         mujoco.mj_setState(self.model, self.data, np.asarray(state.physics.data, np.float64), spec)
         self.data.sensordata[:] = np.asarray(state.physics.sensordata)
+        # The state vector has no mocap: the weld's target is where reset held it, at the
+        # grip (each step sets it before every substep, so only a drawn frame reads this).
+        self.data.mocap_pos[0] = self.data.sensordata[self.task.sensor_slices["grip_pos"]]
         self._goal = np.asarray(state.desired_goal, np.float32)
         self._steps = 0
         obs, reward = self._obs()
@@ -144,10 +182,32 @@ class BaxterGymEnv(gymnasium.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        if self._renderer is None:  # needs an OpenGL backend (MUJOCO_GL=egl or osmesa)
-            self._renderer = mujoco.Renderer(self.model, 480, 640)
-        self._renderer.update_scene(self.data)
+        if self._renderer is None:
+            self._renderer = self._make_renderer()
+            self._drawn = mujoco.MjData(self.model)
+        # The state is drawn from a copy brought up to date by mj_forward: reset's
+        # mj_setState leaves the positions stale (a fresh env drew a black frame, a later
+        # reset the cube 0.28 m from where it was) and after mj_step they lag a substep.
+        # mj_forward on `data` itself would recompute the sensors that the next step reads.
+        mujoco.mj_copyData(self._drawn, self.model, self.data)
+        mujoco.mj_forward(self.model, self._drawn)
+        self._renderer.update_scene(self._drawn)
         return self._renderer.render()
+
+    def _make_renderer(self):
+        """mujoco.Renderer, or a RuntimeError naming MUJOCO_GL; the env steps on either way."""
+        try:
+            with warnings.catch_warnings():  # glfw also warns what the error below says
+                warnings.simplefilter("ignore")
+                return mujoco.Renderer(self.model, 480, 640)
+        except Exception as err:  # noqa: BLE001 - each GL backend fails in its own way
+            why = (str(err).strip().splitlines() or [type(err).__name__])[0]
+            gl = os.environ.get("MUJOCO_GL", "")
+            raise RuntimeError(
+                f"render(): no OpenGL context could be made (MUJOCO_GL={gl!r}: {why}); without "
+                "a display set MUJOCO_GL=egl (or osmesa) before mujoco is first imported, "
+                "e.g. MUJOCO_GL=egl python ...; the env still steps"
+            ) from err
 
     def close(self):
         if self._renderer is not None:
@@ -163,5 +223,6 @@ def gym_id(task: str) -> str:
 # episode_length=... changes (a TimeLimit fixed at registration would not follow it).
 for _name in ENVS:
     if gym_id(_name) not in gymnasium.registry:
-        gymnasium.register(id=gym_id(_name), entry_point="mjx_skills.envs.gym:BaxterGymEnv",
-                           kwargs={"task": _name})  # fmt: skip
+        gymnasium.register(
+            gym_id(_name), "mjx_skills.envs.gym:BaxterGymEnv", kwargs={"task": _name}
+        )

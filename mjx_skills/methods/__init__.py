@@ -85,7 +85,16 @@ PAS_UNREAD = {
 transition already spans its skill's env steps (no n-step returns)."""
 
 
-def check_task(method: str, task: str, options: dict[str, Any] | None = None) -> None:
+SEVERAL_CUBES = {
+    "search": ("in_order", "goal_clearance"),
+    "env": ("object_reward", "goal_start_prob"),
+}
+"""Options that act only where a scene has several cubes: refused, when set, on one cube."""
+
+
+def check_task(
+    method: str, task: str, options: dict[str, Any] | None = None, env: Any = None
+) -> None:
     """ValueError if `method` cannot run `task`. Every method runs every task (the library's
     skills act on any cube through the scene's projection onto (gripper, that cube)) except
     PAS / MPAS with the thesis's joint critic, which runs the one-cube tasks only
@@ -100,6 +109,20 @@ def check_task(method: str, task: str, options: dict[str, Any] | None = None) ->
     if pas is not None and pas.critic == "joint" and cubes != 1:
         raise ValueError(f"--pas.critic joint (the thesis's critic) runs on one-cube tasks; "
                          f"{task} has {cubes} cubes: use --pas.critic per_skill")  # fmt: skip
+    if cubes == 1:
+        from mjx_skills.config import EnvConfig
+
+        given = {**options, "env": env or EnvConfig()}
+        defaults = {**get(method).options, "env": EnvConfig()}
+        for group, fields in SEVERAL_CUBES.items():
+            for field in fields:
+                if group in given and getattr(given[group], field) != getattr(
+                    defaults[group], field
+                ):
+                    raise ValueError(
+                        f"--{group}.{field.replace('_', '-')} acts only where a scene has several "
+                        f"cubes; {task} has one: leave it at its default"
+                    )
     search = options.get("search")
     if method == "ddpg_her_sl_bc" and search is not None and search.explorer != "search":
         raise ValueError(f"ddpg_her_sl_bc clones the skills the look-ahead search drives; "

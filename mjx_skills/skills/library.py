@@ -13,12 +13,8 @@ a half-written library and is refused).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 import logging
-import re
 import shutil
-import subprocess
 import time
 from pathlib import Path
 from typing import Any
@@ -29,15 +25,19 @@ import numpy as np
 import orbax.checkpoint as ocp
 from flax import struct
 
-from mjx_skills import __version__
 from mjx_skills.agents import ddpg
 from mjx_skills.config import LIBRARIES as LIBRARY_NAMES
-from mjx_skills.config import DDPGConfig, LibraryConfig, from_dict
+from mjx_skills.config import DDPGConfig, LibraryConfig
+from mjx_skills.core.config_io import from_dict
+from mjx_skills.core.files import read_json, tree_sha256, write_json_atomic
 from mjx_skills.core.grouped import apply_per_row, select
 from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
 from mjx_skills.core.types import ObsLayout
-from mjx_skills.envs.baxter import LAYOUT, XML_DIR, BaxterEnv
+from mjx_skills.envs.baxter import LAYOUT, BaxterEnv
 from mjx_skills.envs.registry import SKILLS, make
+from mjx_skills.skills.provenance import provenance, stale_reasons
+from mjx_skills.skills.provenance import scene_files as scene_files  # re-exported
+from mjx_skills.skills.provenance import scenes_digest as scenes_digest  # re-exported
 
 LIBRARIES = dict(zip(LIBRARY_NAMES, (("transit", "grasp", "transfer"), ("grasp", "transfer"),
                                          ("transit", "transfer")), strict=True))  # fmt: skip
@@ -255,9 +255,9 @@ def subset(lib: SkillLibrary, name: str) -> SkillLibrary:
 def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
          made_by: dict[str, str] | None = None) -> Path:  # fmt: skip
     """Write the library to `directory` (which must not exist): arrays through orbax into a
-    temporary sibling, then manifest.json, then one rename, so a reader never sees half.
-    `made_by`: the `provenance()` of the code that built it, taken when the build started
-    (default: now)."""
+    temporary sibling, then manifest.json (with the arrays' `digest`, checked by `load`),
+    then one rename, so a reader never sees half. `made_by`: the `provenance()` of the code
+    that built it, taken when the build started (default: now)."""
     directory = Path(directory).resolve()
     if directory.exists():
         raise FileExistsError(f"{directory} exists; a library is never overwritten")
@@ -267,63 +267,10 @@ def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
     full = {**manifest, "format": FORMAT, **(made_by or provenance()), "skills": list(lib.names),
             "ddpg": dataclasses.asdict(lib.ddpg_config),
             "library": dataclasses.asdict(lib.config), "complete": True}  # fmt: skip
-    (tmp / "manifest.json").write_text(json.dumps(full, indent=2))
+    full["digest"] = tree_sha256(lib)
+    write_json_atomic(tmp / "manifest.json", full, indent=2)
     tmp.rename(directory)
     return directory
-
-
-def scene_files() -> list[Path]:
-    """The MJCF files of the one-cube scenes (the skills' and the thesis's tasks') and the
-    files they include: the physics the library was built for and is used in."""
-    from mjx_skills.envs.registry import ENVS
-
-    todo, seen = {cls.scene for cls in ENVS.values() if cls.n_objects == 1}, set()
-    while todo:
-        name = todo.pop()
-        seen.add(name)
-        todo |= set(re.findall(r'<include file="([^"]+)"', (XML_DIR / name).read_text())) - seen
-    return sorted(XML_DIR / name for name in seen)
-
-
-def scenes_digest() -> str:
-    """SHA-256 (first 16 hex digits) of `scene_files()`: the skills were trained and their
-    models fitted in these scenes, so a library built before one of them changed describes
-    other physics. (Scenes added for other tasks, such as the two-cube ones, do not count.)"""
-    digest = hashlib.sha256()
-    for path in scene_files():
-        digest.update(path.name.encode() + b"\0" + path.read_bytes())
-    return digest.hexdigest()[:16]
-
-
-def _git_commit() -> str:
-    """The checkout's commit ('+dirty' when tracked files differ), or 'unknown'."""
-    root = XML_DIR.parent
-    try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
-                              text=True, check=True, timeout=10).stdout.strip()  # fmt: skip
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=root, capture_output=True, text=True, timeout=10).stdout  # fmt: skip
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return head + ("+dirty" if dirty.strip() else "")
-
-
-def provenance() -> dict[str, str]:
-    """What built a library: package version, git commit and the scenes' digest."""
-    return {"version": __version__, "commit": _git_commit(), "scenes": scenes_digest()}
-
-
-def stale_reasons(manifest: dict[str, Any]) -> list[str]:
-    """Why a library may not match this code: another package version, or other scenes
-    (or no record of either: built before they were recorded). Empty when it matches."""
-    reasons = []
-    if manifest.get("version") != __version__:
-        reasons.append(f"built by version {manifest.get('version')}, this is {__version__}")
-    if manifest.get("scenes") is None:
-        reasons.append("built before the scenes' digest was recorded")
-    elif manifest["scenes"] != scenes_digest():
-        reasons.append("built in other scenes (xml/ has changed since)")
-    return reasons
 
 
 def read_manifest(directory: Path) -> dict[str, Any]:
@@ -336,7 +283,7 @@ def read_manifest(directory: Path) -> dict[str, Any]:
         )
     if not path.exists():
         raise ValueError(f"{directory} is a half-written skill library (no manifest.json)")
-    manifest = json.loads(path.read_text())
+    manifest = read_json(path)
     if not manifest.get("complete") or manifest.get("format") != FORMAT:
         raise ValueError(
             f"{directory} holds a library of format {manifest.get('format')} (version "
@@ -362,7 +309,22 @@ def load(directory: Path) -> tuple[SkillLibrary, dict[str, Any]]:
             lib = ckpt.restore(Path(directory).resolve() / "arrays", abstract)
     except Exception as err:  # noqa: BLE001 - any unreadable array file means a bad library
         raise ValueError(f"{directory}: the library's arrays do not load ({err})") from None
+    check_digest(lib, manifest, directory)
     return lib, manifest
+
+
+def check_digest(lib: SkillLibrary, manifest: dict[str, Any], directory: Path) -> None:
+    """ValueError naming `directory` when the restored arrays are not the ones saved (their
+    `tree_sha256` differs from the manifest's `digest`); a library saved before digests
+    were recorded passes with a warning."""
+    if "digest" not in manifest:
+        why = "has no digest of its arrays (built before they were recorded)"
+        log.warning("skill library %s %s: loaded unverified", directory, why)
+    elif tree_sha256(lib) != manifest["digest"]:
+        raise ValueError(
+            f"{directory}: the library's arrays are damaged (their digest differs from the "
+            "manifest's); restore the directory or rebuild it"
+        )
 
 
 def empty_like(

@@ -9,20 +9,32 @@ is committed: `definition.json` and the run's `metrics.jsonl` (one line per epoc
 A sweep takes a stored cell whose definition matches instead of training it, so an
 interrupted campaign picks up from the committed cells on a fresh clone; a stored cell of
 the same name and another definition is refused with the fields that differ.
+
+`checksums.json` (written last, before the cell's directory is renamed into place) holds
+the SHA-256 of the cell's other files; a stored cell is verified against it whenever it is
+taken or read, and a damaged or missing file is refused, naming the cell and the file. A
+cell stored before checksums were recorded is used with a warning.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import shutil
 import types
 from pathlib import Path
 from typing import Any
 
+from mjx_skills.core.files import read_json, read_jsonl, sha256_file, write_json_atomic
+
 STORE = Path("experiments") / "results" / "cells"
 VOLATILE = {("train", "out"), ("train", "progress"), ("train", "checkpoint_every")}
 """Config fields that do not change a run's results."""
+FILES = ("definition.json", "metrics.jsonl", "made_by.json")
+"""A stored cell's files, each with its SHA-256 in its `CHECKSUMS`."""
+CHECKSUMS = "checksums.json"
+log = logging.getLogger(__name__)
 
 
 def run_config(args) -> dict[str, Any]:
@@ -106,17 +118,19 @@ def _unread(config: dict[str, Any]) -> set[str]:
 
 def run_differences(run_dir: Path, cell) -> list[str]:
     """How a run directory's config.json differs from what `cell` would write ([] = same)."""
-    raw = json.loads((Path(run_dir) / "config.json").read_text())
+    raw = read_json(Path(run_dir) / "config.json")
     return _config_differences(_results_part(raw), definition(cell)["config"])
 
 
 def stored(cell, store: Path = STORE) -> Path | None:
     """The stored metrics of `cell` if its definition matches; None if not stored. A stored
-    cell of the same name and another definition raises ValueError naming the fields."""
+    cell of the same name and another definition raises ValueError naming the fields; a
+    damaged one (`verify`) raises ValueError naming the file."""
     where = store / cell.name
-    if not (where / "definition.json").exists():
+    if not (where / "definition.json").exists() and not (where / CHECKSUMS).exists():
         return None
-    old, new = json.loads((where / "definition.json").read_text()), definition(cell)
+    verify(where)
+    old, new = read_json(where / "definition.json"), definition(cell)
     diff = _config_differences(old["config"], new["config"])
     diff += differences(old["library"], new["library"], "library")
     if diff:
@@ -140,6 +154,40 @@ def save(cell, run_dir: Path, store: Path = STORE) -> Path:
     (tmp / "definition.json").write_text(json.dumps(
         {k: meta[k] for k in ("config", "library")}, indent=1, sort_keys=True))  # fmt: skip
     (tmp / "made_by.json").write_text(json.dumps(meta["made_by"], indent=1))
+    write_checksums(tmp)
     shutil.rmtree(where, ignore_errors=True)
     tmp.rename(where)
     return where
+
+
+def write_checksums(where: Path) -> Path:
+    """Record the SHA-256 of a stored cell's `FILES` in its `CHECKSUMS` (atomically)."""
+    sums = {name: sha256_file(where / name) for name in FILES}
+    return write_json_atomic(where / CHECKSUMS, sums, indent=1, sort_keys=True)
+
+
+def verify(where: Path, names: tuple[str, ...] = FILES) -> None:
+    """Check a stored cell's files `names` against its `CHECKSUMS`. Raises ValueError naming
+    the cell directory and the file that is missing or damaged; a cell without checksums
+    (stored before they were recorded) passes with a warning."""
+    if not (where / CHECKSUMS).exists():
+        why = f"has no {CHECKSUMS} (stored before checksums were recorded)"
+        log.warning("stored cell %s %s: its files are used unverified", where, why)
+        return
+    sums = read_json(where / CHECKSUMS)
+    fix = "restore it (git checkout) or delete the directory to train the cell again"
+    for name in names:
+        if not (where / name).exists():
+            raise ValueError(f"the stored cell {where} is damaged: {name} is missing; {fix}")
+        if sums.get(name) != sha256_file(where / name):
+            raise ValueError(
+                f"the stored cell {where} is damaged: {name} does not match its checksum in "
+                f"{CHECKSUMS}; {fix}"
+            )
+
+
+def read_stored_metrics(where: Path) -> list[dict]:
+    """A stored cell's metrics.jsonl rows, verified first (`verify`: ValueError naming the
+    cell and file when damaged)."""
+    verify(where, ("metrics.jsonl",))
+    return read_jsonl(where / "metrics.jsonl")

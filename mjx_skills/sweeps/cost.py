@@ -43,7 +43,9 @@ def load_rows(path: Path = RESULTS) -> list[dict]:
     """The measured rows (one per variant, seeds and cores); a clear error when missing."""
     if not path.exists():
         raise FileNotFoundError(f"{path} is missing: run python benchmarks/epoch_cost.py first")
-    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    from mjx_skills.core.files import read_jsonl
+
+    rows = read_jsonl(path)  # a half-written last line (a killed benchmark) is dropped
     return [r for r in rows if "variant" in r]
 
 
@@ -87,18 +89,26 @@ def stored_epoch_s(cell: Cell, store: Path = STORE) -> float:
     """Seconds per epoch of `cell` from the stored cells of its method (ValueError if none),
     preferring one of the same task, then one of the same options, then the slowest; from
     another task scaled by episode length; then scaled by seeds."""
+    from mjx_skills.core.files import read_json
     from mjx_skills.envs.registry import ENVS
-    from mjx_skills.sweeps.cells import defaults, differences, run_config
-    from mjx_skills.training.metrics_log import read_metrics, wall_seconds
+    from mjx_skills.sweeps.cells import (
+        defaults,
+        differences,
+        read_stored_metrics,
+        run_config,
+        verify,
+    )
+    from mjx_skills.training.metrics_log import wall_seconds
 
     options = run_config(cell.run_args(out="", progress=False))["options"]
     default = defaults(cell.method)["options"]
     found = []
     for d in sorted(store.glob(f"*-{cell.method}-*")):
-        config = json.loads((d / "definition.json").read_text())["config"]
+        verify(d, ("definition.json",))  # damage is named, never used
+        config = read_json(d / "definition.json")["config"]
         if config["method"] != cell.method:
             continue
-        metrics = read_metrics(d)
+        metrics = read_stored_metrics(d)
         train = config["train"]
         wall = wall_seconds(metrics) / max(m["epoch"] for m in metrics)
         rank = (

@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import tomllib
+import typing
 from pathlib import Path
 from typing import Any
 
@@ -109,6 +110,7 @@ class Experiment:
         from mjx_skills.envs.registry import check_name
         from mjx_skills.skills.library import library_skills
 
+        self._check_types()
         if self.kind not in ("train", "library"):
             raise ValueError(
                 f"experiment {self.name}: unknown kind {self.kind!r}; valid: train, library"
@@ -120,11 +122,7 @@ class Experiment:
 
             if self.kind != "library":
                 raise ValueError(f'experiment {self.name}: [library] needs kind = "library"')
-            valid = {f.name for f in dataclasses.fields(LibraryConfig)} - {"samples"}
-            if set(self.library) - valid:
-                raise ValueError(f"experiment {self.name}: unknown [library] field(s) "
-                                 f"{sorted(set(self.library) - valid)}; valid: {sorted(valid)}")  # fmt: skip
-            LibraryConfig(**self.library)  # bad values name their field here
+            self._check_fields("[library]", self.library, LibraryConfig, {"samples"})
         for task in self.tasks:
             check_name(task)
         for method in self.methods:
@@ -133,28 +131,94 @@ class Experiment:
             library_skills(lib)
         if self.seeds < 1 or self.epochs < 1:
             raise ValueError(f"experiment {self.name}: seeds and epochs must be >= 1")
-        fields = {f.name for f in dataclasses.fields(EnvConfig)}
-        if set(self.env) - fields:
-            raise ValueError(f"experiment {self.name}: unknown [env] field(s) "
-                             f"{sorted(set(self.env) - fields)}; valid: {sorted(fields)}")  # fmt: skip
-        EnvConfig(**self.env)  # bad values name their field here
+        self._check_fields("[env]", self.env, EnvConfig)
         if self.label and not self.label.replace("_", "").isalnum():
             raise ValueError(f"experiment {self.name}: label {self.label!r}: letters, digits, _")
-        valid = {f.name for f in dataclasses.fields(TrainConfig)} - {"task", "epochs", "seeds"}
-        if set(self.train) - valid:
-            raise ValueError(f"experiment {self.name}: unknown [train] field(s) "
-                             f"{sorted(set(self.train) - valid)}; valid: {sorted(valid)}")  # fmt: skip
+        self._check_fields("[train]", self.train, TrainConfig, {"task", "epochs", "seeds"})
         for method, groups in self.options.items():
+            if method not in self.methods:
+                raise ValueError(
+                    f"experiment {self.name}: [options.{method}] sets options of a method it "
+                    f"does not run (methods: {', '.join(self.methods)}); they would be dropped"
+                )
             spec = methods.get(method)
             for group, fields in groups.items():
                 if group not in spec.options:
-                    raise ValueError(f"experiment {self.name}: {method} has no option group "
-                                     f"{group!r}; valid: {sorted(spec.options)}")  # fmt: skip
-                dataclasses.replace(methods.preset_options(method, self.preset)[group],
-                                    **fields)  # checks the values  # fmt: skip
+                    raise ValueError(
+                        f"experiment {self.name}: {method} has no option group {group!r}; "
+                        f"valid: {sorted(spec.options)}"
+                    )
+                if group == spec.library_group and "library" in fields:
+                    raise ValueError(
+                        f"experiment {self.name}: [options.{method}.{group}] library: the "
+                        "cells' libraries come from `libraries = [...]`; set it there"
+                    )
+                default = methods.preset_options(method, self.preset)[group]
+                self._check_fields(f"[options.{method}.{group}]", fields, type(default))
+        if self.kind == "train":
+            self._check_cells()
+
+    def _check_types(self) -> None:
+        """Every top-level value has its field's type (`config.checked_value`): `seeds = 3.0`
+        or `tasks = "pick_move"` fail here, naming the key."""
+        from mjx_skills.config import checked_value
+
+        hints = typing.get_type_hints(Experiment)
+        for field in dataclasses.fields(self):
+            value, hint = getattr(self, field.name), hints[field.name]
+            where = f"experiment {self.name}: {field.name}"
+            if typing.get_origin(hint) is dict:
+                if not isinstance(value, dict) or not all(
+                    isinstance(v, dict) for v in value.values() if field.name == "options"
+                ):
+                    raise ValueError(f"{where}: must be a table, got {value!r}")
+                continue
+            try:
+                object.__setattr__(self, field.name, checked_value(field.name, value, hint))
+            except ValueError as err:
+                raise ValueError(f"experiment {self.name}: {err}") from None
+
+    def _check_fields(self, where: str, fields: dict, cls: type, fixed: set = frozenset()) -> None:
+        """Every key of a table names a field of `cls` (not one of `fixed`, set elsewhere),
+        and `cls` takes the values: else ValueError naming the table and the valid fields."""
+        valid = {f.name for f in dataclasses.fields(cls)} - set(fixed)
+        unknown = sorted(set(fields) - valid)
+        if unknown:
+            raise ValueError(
+                f"experiment {self.name}: unknown {where} field(s) {unknown}; "
+                f"valid: {sorted(valid)}"
+            )
+        try:
+            cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
+        except ValueError as err:
+            raise ValueError(f"experiment {self.name}: {where}: {err}") from None
+
+    def _check_cells(self) -> None:
+        """Each cell's run would read every option the file sets and can run its task
+        (`methods.check_read`, `methods.check_task`), so no override is dropped silently."""
+        from mjx_skills import methods
+
+        uses_library = any(methods.get(m).library_group for m in self.methods)
+        if self.libraries != ("SL1",) and not uses_library:
+            raise ValueError(
+                f"experiment {self.name}: libraries {list(self.libraries)} but none of "
+                f"{', '.join(self.methods)} uses a skill library"
+            )
+        for cell in self.cells():
+            args = cell.run_args(out="", progress=False)
+            try:
+                methods.check_read(cell.method, args.train, dict(args.options))
+                methods.check_task(cell.method, cell.task, dict(args.options), args.env)
+            except ValueError as err:
+                raise ValueError(f"experiment {self.name}, cell {cell.name}: {err}") from None
 
     def with_budget(self, seeds: int | None = None, epochs: int | None = None) -> Experiment:
-        return dataclasses.replace(self, seeds=seeds or self.seeds, epochs=epochs or self.epochs)
+        """This experiment with another budget where one is given (None: its own); a
+        value below 1 is refused (ValueError), never taken as "not given"."""
+        seeds = self.seeds if seeds is None else seeds
+        return dataclasses.replace(
+            self, seeds=seeds, epochs=self.epochs if epochs is None else epochs
+        )
 
     def cells(self) -> list[Cell]:
         if self.kind == "library":
@@ -185,16 +249,43 @@ def load_experiment(name: str) -> Experiment:
     path = EXPERIMENTS / f"{name}.toml"
     if not path.exists():
         raise ValueError(f"unknown experiment {name!r}; valid: {', '.join(names())}")
-    raw = tomllib.loads(path.read_text())
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise ValueError(f"{path} is not valid TOML: {err}") from None
     known = {f.name for f in dataclasses.fields(Experiment)} - {"name"}
     if set(raw) - known:
         raise ValueError(
             f"{path}: unknown key(s) {sorted(set(raw) - known)}; valid: {sorted(known)}"
         )
+    if raw.get("kind") == "library":
+        extra = sorted(set(raw) - LIBRARY_KEYS)
+        if extra:
+            raise ValueError(
+                f"{path}: a library experiment does not read {extra}; valid: {sorted(LIBRARY_KEYS)}"
+            )
+    elif set(raw) & {"samples", "library"}:
+        raise ValueError(f'{path}: samples and [library] need kind = "library"')
+    if "libraries" in raw and not any(
+        _library_method(m) for m in raw.get("methods", ()) if isinstance(m, str)
+    ):
+        raise ValueError(
+            f"{path}: libraries are set but no method of {raw.get('methods')} uses one"
+        )
     for key in ("tasks", "methods", "libraries", "samples"):
         if key in raw:
             raw[key] = tuple(raw[key])
     return Experiment(name=name, **raw)
+
+
+LIBRARY_KEYS = {"description", "kind", "samples", "library"}
+"""What a `kind = "library"` file reads: its other keys would be dropped, so are refused."""
+
+
+def _library_method(method: str) -> bool:
+    from mjx_skills import methods
+
+    return method in methods.METHODS and methods.get(method).library_group is not None
 
 
 def adhoc(name: str, tasks, methods, libraries=None) -> Experiment:

@@ -2,7 +2,9 @@
 
 Orbax writes each step to a temporary directory and renames it when complete, so a
 half-written checkpoint is never taken for a good one; a checkpoint that fails to restore
-is reported and the previous good one is used.
+is reported and the previous good one is used. Each save also records a SHA-256 of the
+carry's arrays (checkpoints/digests.json, by epoch): a checkpoint that restores to other
+contents than were saved (damaged bytes that still decode) is treated as unreadable too.
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ from typing import Any
 
 import jax
 import orbax.checkpoint as ocp
+
+from mjx_skills.core.files import read_json, tree_sha256, write_json_atomic
 
 log = logging.getLogger(__name__)
 
@@ -30,8 +34,30 @@ class Checkpoints:
         self.manager = ocp.CheckpointManager(self.directory, options=options)
 
     def save(self, epoch: int, carry: Any) -> None:
+        """Write `carry` as the checkpoint of `epoch`, and its digest. Done with `carry` when
+        it returns (the caller may donate its buffers next)."""
+        digest = tree_sha256(carry)
         self.manager.save(epoch, args=ocp.args.StandardSave(carry), force=True)
         self.manager.wait_until_finished()
+        # After the save: a digest without its checkpoint is harmless, never the reverse.
+        kept = {str(e) for e in self.manager.all_steps()}
+        digests = {e: d for e, d in self._digests().items() if e in kept}
+        write_json_atomic(self._digest_path, {**digests, str(epoch): digest}, indent=1)
+
+    @property
+    def _digest_path(self) -> Path:
+        return self.directory / "digests.json"
+
+    def _digests(self) -> dict[str, str]:
+        """Recorded digests by epoch ({} when none, or when the file is unreadable: then
+        every checkpoint restores unverified, with a warning)."""
+        if not self._digest_path.exists():
+            return {}
+        try:
+            return dict(read_json(self._digest_path))
+        except ValueError as err:
+            log.warning("%s; restoring checkpoints without verifying them", err)
+            return {}
 
     def latest_epoch(self) -> int | None:
         return self.manager.latest_step()
@@ -39,10 +65,13 @@ class Checkpoints:
     def restore(self, like: Any) -> tuple[int, Any]:
         """Newest restorable checkpoint -> (epoch, carry shaped like `like`).
 
-        An unreadable checkpoint is reported and skipped for the one before it; one that
-        reads but holds other shapes than `like` raises ValueError (a different run)."""
+        An unreadable checkpoint, or one whose contents differ from the digest recorded at
+        its save, is reported, set aside and skipped for the one before it; one without a
+        recorded digest (an older run) restores with a warning. One that reads but holds
+        other shapes than `like` raises ValueError (a different run); FileNotFoundError
+        when none restores."""
         abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, like)
-        errors = []
+        errors, digests = [], self._digests()
         for epoch in sorted(self.manager.all_steps(), reverse=True):
             try:
                 saved = self.manager.restore(epoch, args=ocp.args.StandardRestore())
@@ -56,9 +85,20 @@ class Checkpoints:
             if _signature(saved) != _signature(abstract):
                 raise ValueError(
                     f"checkpoint at epoch {epoch} does not match this run: it holds other "
-                    "array shapes (task, method or sizes differ from config.json)"
+                    "array shapes (task, method or sizes differ from config.json, or an earlier "
+                    "mjx_skills wrote it, whose counters were one int32 each, not a pair)"
                 )
             restored = self.manager.restore(epoch, args=ocp.args.StandardRestore(abstract))
+            recorded = digests.get(str(epoch))
+            if recorded is None:
+                why = "has no recorded digest (an older run); restoring it unverified"
+                log.warning("checkpoint at epoch %d %s", epoch, why)
+            elif tree_sha256(restored) != recorded:
+                why = "restores to other contents than were saved (damaged)"
+                log.warning("checkpoint at epoch %d %s; trying an older one", epoch, why)
+                errors.append(f"epoch {epoch}: contents differ from the recorded digest")
+                self._set_aside(epoch)
+                continue
             return epoch, restored
         raise FileNotFoundError(
             "no restorable checkpoint" + (": " + "; ".join(errors) if errors else "")

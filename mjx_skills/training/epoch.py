@@ -17,6 +17,7 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
 from mjx_skills import methods
@@ -25,10 +26,34 @@ from mjx_skills.core import replay, rollout
 from mjx_skills.core.learner import Learner, Progress, mean_records
 from mjx_skills.core.types import GoalEnv
 
+COUNT_BASE = 2**30
+"""A counter is (2,) int32 [high, low], worth high * 2**30 + low: up to 2**61, where one int32
+wraps negative past 2**31 env steps (epoch 210 at 4096 envs x 50 cycles of 50 steps)."""
+COUNTERS = ("env_steps", "episodes", "skill_calls")
+
+
+def count_add(count: jax.Array, n: jax.Array) -> jax.Array:
+    """`count` (2,) int32 plus `n` (a scalar in [0, 2**30): one cycle's steps), carried."""
+    low = count[1] + jnp.asarray(n, jnp.int32)  # < 2**31: no wrap
+    return jnp.stack([count[0] + low // COUNT_BASE, low % COUNT_BASE])
+
+
+def count_values(count: Any) -> np.ndarray:
+    """Counters (..., 2) [high, low] -> their values (...,) as int64 on the host."""
+    count = np.asarray(count, np.int64)
+    return count[..., 0] * COUNT_BASE + count[..., 1]
+
+
+def host_metrics(metrics: dict[str, Any]) -> dict[str, np.ndarray]:
+    """An epoch's metrics on the host: arrays, the counters as int64 values."""
+    out = {k: np.asarray(v) for k, v in metrics.items()}
+    return out | {k: count_values(out[k]) for k in COUNTERS if k in out}
+
 
 @struct.dataclass
 class Counters:
-    """Training interaction so far, counted on device (evaluation is not counted)."""
+    """Training interaction so far, counted on device (evaluation is not counted); each a
+    (2,) int32 counter (`count_add`, `count_values`)."""
 
     env_steps: jax.Array
     episodes: jax.Array
@@ -37,7 +62,7 @@ class Counters:
 
     @classmethod
     def zeros(cls) -> Counters:
-        zero = jnp.zeros((), jnp.int32)
+        zero = jnp.zeros((2,), jnp.int32)
         return cls(env_steps=zero, episodes=zero, skill_calls=zero)
 
 
@@ -77,6 +102,8 @@ def make_train_cycles(learner: Learner, env: GoalEnv, train: TrainConfig):
     cycles without evaluation, pure and jittable."""
 
     summarize = learner.summarize or mean_records
+    if train.envs * env.episode_length >= COUNT_BASE:
+        raise ValueError(f"envs: {train.envs} x {env.episode_length} steps per cycle is over 2**30")
 
     def cycle(aux, carry: TrainCarry, _):
         key, k_roll, k_upd = jax.random.split(carry.key, 3)
@@ -88,9 +115,9 @@ def make_train_cycles(learner: Learner, env: GoalEnv, train: TrainConfig):
         skill_calls = records.pop("skill_calls", jnp.zeros((), jnp.int32))
         c = carry.counters
         counters = c.replace(
-            env_steps=c.env_steps + train.envs * env.episode_length,
-            episodes=c.episodes + train.envs,
-            skill_calls=c.skill_calls + jnp.sum(skill_calls).astype(jnp.int32),
+            env_steps=count_add(c.env_steps, train.envs * env.episode_length),
+            episodes=count_add(c.episodes, train.envs),
+            skill_calls=count_add(c.skill_calls, jnp.sum(skill_calls)),
         )
         carry = carry.replace(agent=agent, replay=buffer, key=key, counters=counters)
         stats = {
@@ -113,7 +140,8 @@ def make_train_epoch(
 ):
     """-> train_epoch(carry, aux) -> (carry, metrics): the cycles, then evaluation (on
     `eval_env`, default `env`: the true start distribution where training uses another);
-    pure and jittable. Metrics hold the counters after the epoch (int32)."""
+    pure and jittable. Metrics hold the counters after the epoch ((2,) int32 each:
+    `host_metrics` makes them values)."""
     train_cycles = make_train_cycles(learner, env, train)
     evaluate = make_evaluate(learner, env if eval_env is None else eval_env, train)
 

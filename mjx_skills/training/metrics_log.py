@@ -1,33 +1,36 @@
-"""Metrics as JSONL (one line per epoch per seed) and TensorBoard events; progress bar."""
+"""Metrics as JSONL (one line per epoch per seed) and TensorBoard events; progress bar.
+
+The metrics.jsonl line is the product: TensorBoard and the progress bar are optional, and
+when either fails (no tensorboardX, an unwritable tb/ directory, a full disk, a broken
+terminal) one warning is logged and the run carries on without it.
+"""
 
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 
 import numpy as np
 from tqdm.auto import tqdm
 
+from mjx_skills.core.files import read_jsonl, read_jsonl_lines, write_text_atomic
+
+log = logging.getLogger(__name__)
+
 
 class MetricsWriter:
-    """Appends to RUN_DIR/metrics.jsonl; on resume, drops lines past the restored epoch so
-    that the file reads as one uninterrupted run."""
+    """Appends to RUN_DIR/metrics.jsonl; on resume, drops lines past the restored epoch (and
+    a half-written last line a crash left) so that the file reads as one uninterrupted run."""
 
     def __init__(self, run_dir: Path, resume_from_epoch: int = 0):
         self.path = Path(run_dir) / "metrics.jsonl"
         if self.path.exists():
-            kept = [
-                line for line in self.path.read_text().splitlines()
-                if line and json.loads(line)["epoch"] <= resume_from_epoch
-            ]  # fmt: skip
-            self.path.write_text("".join(line + "\n" for line in kept))
+            lines = read_jsonl_lines(self.path)
+            kept = [text for text, row in lines if row["epoch"] <= resume_from_epoch]
+            write_text_atomic(self.path, "".join(line + "\n" for line in kept))
         self._file = self.path.open("a")
-        try:
-            from tensorboardX import SummaryWriter
-
-            self._tb = SummaryWriter(str(Path(run_dir) / "tb"))
-        except ImportError:  # TensorBoard logging is optional
-            self._tb = None
+        self._tb = _summary_writer(Path(run_dir) / "tb")
 
     def write(self, epoch: int, metrics: dict[str, np.ndarray], **common) -> None:
         """metrics: name -> (n_seeds,) array; one JSON line per seed. Integer metrics (the
@@ -40,29 +43,84 @@ class MetricsWriter:
         self._file.flush()
         if self._tb is not None:
             x = int(np.max(metrics["env_steps"])) if "env_steps" in metrics else epoch
-            for name, value in metrics.items():
-                self._tb.add_scalar(name, float(np.mean(value)), x)
-            self._tb.flush()
+            try:
+                for name, value in metrics.items():
+                    self._tb.add_scalar(name, float(np.mean(value)), x)
+                self._tb.flush()
+            except Exception as err:  # noqa: BLE001 - optional: any failure, the run goes on
+                log.warning("TensorBoard logging failed (%s); going on without it", err)
+                self._close_tb()
 
     def close(self) -> None:
         self._file.close()
-        if self._tb is not None:
-            self._tb.close()
+        self._close_tb()
+
+    def _close_tb(self) -> None:
+        tb, self._tb = self._tb, None
+        if tb is not None:
+            try:
+                tb.close()
+            except Exception:  # noqa: BLE001 - already warned, or closing at the end
+                pass
+
+
+def _summary_writer(directory: Path):
+    """A tensorboardX SummaryWriter on `directory`, or None: not installed (silently, it is
+    optional) or failing to start (warned)."""
+    try:
+        from tensorboardX import SummaryWriter
+    except ImportError:
+        return None
+    try:
+        return SummaryWriter(str(directory))
+    except Exception as err:  # noqa: BLE001 - an unwritable tb/ must not stop the run
+        log.warning("TensorBoard logging is off: %s cannot be written (%s)", directory, err)
+        return None
 
 
 def _scalar(x: np.ndarray) -> int | float:
     return int(x) if np.issubdtype(np.asarray(x).dtype, np.integer) else float(x)
 
 
-def progress_bar(total: int, done: int, enabled: bool, desc: str):
-    return tqdm(
-        total=total, initial=done, disable=not enabled, desc=desc, unit="epoch", dynamic_ncols=True
-    )
+def progress_bar(total: int, done: int, enabled: bool, desc: str) -> _Bar:
+    """A tqdm bar of epochs whose failures (creating, updating, closing) log one warning and
+    turn it off instead of stopping the run."""
+    options = dict(disable=not enabled, desc=desc, unit="epoch", dynamic_ncols=True)
+    return _Bar(lambda: tqdm(total=total, initial=done, **options))
+
+
+class _Bar:
+    """The calls the trainer makes on a tqdm bar, each guarded."""
+
+    def __init__(self, make):
+        self._bar = None
+        self._guard(lambda: setattr(self, "_bar", make()))
+
+    def _guard(self, call) -> None:
+        try:
+            call()
+        except Exception as err:  # noqa: BLE001 - optional: any failure, the run goes on
+            log.warning("the progress bar failed (%s); going on without it", err)
+            self._bar = None
+
+    def set_postfix(self, **values) -> None:
+        if self._bar is not None:
+            self._guard(lambda: self._bar.set_postfix(**values))
+
+    def update(self, n: int = 1) -> None:
+        if self._bar is not None:
+            self._guard(lambda: self._bar.update(n))
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._guard(self._bar.close)
+        self._bar = None
 
 
 def read_metrics(run_dir: Path) -> list[dict]:
-    path = Path(run_dir) / "metrics.jsonl"
-    return [json.loads(line) for line in path.read_text().splitlines() if line]
+    """RUN_DIR/metrics.jsonl's rows (`files.read_jsonl`: a half-written last line is
+    dropped with a warning; damage elsewhere raises ValueError naming file and line)."""
+    return read_jsonl(Path(run_dir) / "metrics.jsonl")
 
 
 def wall_seconds(rows: list[dict]) -> float:

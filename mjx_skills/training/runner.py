@@ -8,7 +8,6 @@ per epoch per seed), TensorBoard events and checkpoints/. A run directory is nev
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import sys
 import time
@@ -16,15 +15,19 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import jax
 import numpy as np
 
 from mjx_skills import __version__, methods
-from mjx_skills.config import EnvConfig, TrainConfig, from_dict
+from mjx_skills.config import EnvConfig, TrainConfig
+from mjx_skills.core.config_io import from_dict
+from mjx_skills.core.files import read_json, write_json_atomic
+from mjx_skills.core.paths import check_writable_path
+from mjx_skills.core.precision import require_float32
 from mjx_skills.envs.registry import check_name
 from mjx_skills.training.checkpoint import Checkpoints
-from mjx_skills.training.epoch import build, committed
-from mjx_skills.training.metrics_log import MetricsWriter, progress_bar
+from mjx_skills.training.epoch import build, committed, host_metrics
+from mjx_skills.training.interrupt import deferred_stop
+from mjx_skills.training.metrics_log import MetricsWriter, progress_bar, read_metrics
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,15 +79,18 @@ def config_dict(args: RunArgs) -> dict[str, Any]:
 
 
 def save_config(run_dir: Path, args: RunArgs) -> None:
+    """RUN_DIR/config.json, written whole or not at all (a crash leaves the old one)."""
     raw = {**config_dict(args), "version": __version__}
-    (run_dir / "config.json").write_text(json.dumps(raw, indent=2))
+    write_json_atomic(run_dir / "config.json", raw, indent=2)
 
 
 def load_config(run_dir: Path) -> RunArgs:
+    """The run's RunArgs from its config.json. FileNotFoundError: not a run directory;
+    ValueError naming the file: damaged, or written by a version without method options."""
     path = run_dir / "config.json"
     if not path.exists():
         raise FileNotFoundError(f"{run_dir} has no config.json: not a run directory")
-    raw = json.loads(path.read_text())
+    raw = read_json(path)
     if "options" not in raw:  # written before the method registry (version 0.1.0 runs)
         raise ValueError(
             f"{path} was written by an earlier version (no method options); start a new run"
@@ -93,15 +99,22 @@ def load_config(run_dir: Path) -> RunArgs:
     # a field added since the run was written: at the value the code had then
     options = {name: from_dict(type(spec.options[name]), {**spec.earlier.get(name, {}), **group})
                for name, group in raw["options"].items()}  # fmt: skip
-    return RunArgs(train=from_dict(TrainConfig, raw["train"]), method=raw["method"],
-                   env=from_dict(EnvConfig, raw["env"]), options=options, resume=str(run_dir))  # fmt: skip
+    return RunArgs(
+        train=from_dict(TrainConfig, raw["train"]),
+        method=raw["method"],
+        env=from_dict(EnvConfig, raw["env"]),
+        options=options,
+        resume=str(run_dir),
+    )
 
 
 def _extended(args: RunArgs, epochs: int) -> RunArgs:
     """A resumed run's args with its budget raised to `epochs` (ValueError below its own)."""
     if epochs < args.train.epochs:
-        raise ValueError(f"epochs: cannot shorten {args.resume} from {args.train.epochs} to "
-                         f"{epochs} epochs; extending needs at least its own")  # fmt: skip
+        raise ValueError(
+            f"epochs: cannot shorten {args.resume} from {args.train.epochs} to "
+            f"{epochs} epochs; extending needs at least its own"
+        )
     return dataclasses.replace(args, train=dataclasses.replace(args.train, epochs=epochs))
 
 
@@ -119,17 +132,24 @@ def train_run(args: RunArgs, stop_after: int | None = None) -> Path:
 
 def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, Any]:
     """`train_run`, also returning the final carry (leading seed axis). Resuming a finished
-    run trains nothing and returns its last checkpoint's carry."""
+    run trains nothing and returns its last checkpoint's carry. Ctrl-C or SIGTERM finish the
+    epoch in flight, save it and return (`interrupt.deferred_stop`); a second one stops at
+    once. Refused before any write: x64 JAX (`precision`), a path orbax cannot write
+    (`paths`), unknown or unread options, a task the method cannot run."""
+    require_float32()
     run_dir = Path(args.resume) if args.resume else None
     extended = False  # a resumed run given a longer budget: saved once its checkpoint loaded
     if run_dir is not None:
+        check_writable_path(run_dir, "--resume")
         extend_to, args = args.extend_to, load_config(run_dir)
         if extend_to is not None:
             extended, args = extend_to != args.train.epochs, _extended(args, extend_to)
+    else:
+        check_writable_path(args.train.out, "--out")
     check_name(args.train.task)
     options = args.full_options()  # unknown methods and option groups fail before any write
     methods.check_read(args.method, args.train, options)  # so do options it would ignore
-    methods.check_task(args.method, args.train.task, options)
+    methods.check_task(args.method, args.train.task, options, args.env)
     # Read-only method inputs (the skill library) enter the jitted epoch here, never donated;
     # a missing library fails here too, before a run directory is made.
     spec = methods.get(args.method)
@@ -141,9 +161,11 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     env, _, epoch_fn, carry = build(args.method, cfg, args.env, options, aux)
     checkpoints = Checkpoints(run_dir / "checkpoints")
     start = 0
-    if args.resume and checkpoints.latest_epoch() is not None:
-        start, carry = checkpoints.restore(carry)
-        carry = committed(carry)
+    if args.resume:
+        if checkpoints.latest_epoch() is not None:
+            start, carry = checkpoints.restore(carry)
+            carry = committed(carry)
+        _say_where_it_resumes(run_dir, start, cfg.epochs)
     if extended:
         save_config(run_dir, args)
     writer = MetricsWriter(run_dir, resume_from_epoch=start)
@@ -151,34 +173,39 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{args.method}")
     logged, t0 = start, time.time()
     try:
-        for epoch in range(start + 1, cfg.epochs + 1):
-            t_epoch = time.time()
-            carry, metrics = epoch_fn(carry, aux)
-            metrics = jax.tree.map(np.asarray, metrics)
-            check_finite(metrics)
-            writer.write(epoch, metrics, wall_s=time.time() - t0)
-            logged = epoch
-            sps = steps_per_epoch * cfg.seeds / max(time.time() - t_epoch, 1e-9)
-            bar.set_postfix(eval_success=f"{metrics['eval_success'].mean():.2f}",
-                            env_steps=int(metrics["env_steps"][0]), steps_per_s=f"{sps:.0f}")  # fmt: skip
-            bar.update(1)
-            if epoch % cfg.checkpoint_every == 0 or epoch == cfg.epochs:
-                checkpoints.save(epoch, carry)
-            if stop_after is not None and epoch >= stop_after:
-                raise KeyboardInterrupt
-    except KeyboardInterrupt:
-        # Save only a carry whose epoch has been logged, so a resume continues the log.
-        if (
-            logged > start
-            and checkpoints.latest_epoch() != logged
-            and _carry_epoch(carry) == logged
-        ):
-            checkpoints.save(logged, carry)
-        if stop_after is None:
-            print(
-                f"\ninterrupted after epoch {logged}; resume with --resume {run_dir}",
-                file=sys.stderr,
-            )
+        with deferred_stop() as stop:
+            for epoch in range(start + 1, cfg.epochs + 1):
+                t_epoch = time.time()
+                carry, metrics = epoch_fn(carry, aux)
+                metrics = host_metrics(metrics)
+                check_finite(metrics)
+                writer.write(epoch, metrics, wall_s=time.time() - t0)
+                logged = epoch
+                sps = steps_per_epoch * cfg.seeds / max(time.time() - t_epoch, 1e-9)
+                bar.set_postfix(
+                    eval_success=f"{metrics['eval_success'].mean():.2f}",
+                    env_steps=int(metrics["env_steps"][0]),
+                    steps_per_s=f"{sps:.0f}",
+                )
+                bar.update(1)
+                last = epoch == cfg.epochs
+                if last or epoch % cfg.checkpoint_every == 0 or stop or epoch == stop_after:
+                    checkpoints.save(epoch, carry)
+                if not last and (stop or epoch == stop_after):
+                    if stop:
+                        print(
+                            f"interrupted after epoch {epoch} (saved); resume with "
+                            f"--resume {run_dir}",
+                            file=sys.stderr,
+                        )
+                    break
+    except KeyboardInterrupt:  # a second signal: the epoch in flight is lost
+        saved = checkpoints.latest_epoch() or 0
+        print(
+            f"\ninterrupted during epoch {logged + 1}; the last checkpoint holds epoch "
+            f"{saved}; resume with --resume {run_dir}",
+            file=sys.stderr,
+        )
     finally:
         bar.close()
         writer.close()
@@ -186,16 +213,20 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     return run_dir, carry
 
 
-def _carry_epoch(carry) -> int | None:
-    """The carry's epoch counter, or None if Ctrl-C hit mid-epoch (its buffers were donated)."""
-    try:
-        return int(np.asarray(carry.epoch).ravel()[0])
-    except RuntimeError:
-        return None
+def _say_where_it_resumes(run_dir: Path, start: int, epochs: int) -> None:
+    if start:
+        print(
+            f"resuming {run_dir} from its checkpoint of epoch {start} of {epochs}", file=sys.stderr
+        )
+    else:
+        print(
+            f"{run_dir} holds no checkpoint: training it from epoch 0 of {epochs}", file=sys.stderr
+        )
 
 
 def summary(run_dir: Path) -> str:
-    lines = [json.loads(x) for x in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    """One line: the last epoch's eval success over seeds (from `read_metrics`)."""
+    lines = read_metrics(run_dir)
     if not lines:
         return f"{run_dir}: no epochs"
     last = max(x["epoch"] for x in lines)

@@ -1,0 +1,27 @@
+"""Where runs, checkpoints and libraries may be written: checked before any work starts.
+
+Orbax (the checkpoints, the skill library's arrays) finishes a save by globbing its own
+directory, so a path holding a glob class (`runs[v2]/`) or a backslash saves nothing it can
+read back: the save only logs "Skipping merge of OCDBT checkpoints" and the trained run is
+lost (tests/test_paths.py sweeps every character). Such paths are refused up front.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+REFUSED = "[]\\"
+"""Characters orbax reads as glob syntax in a path (spaces, non-ASCII, `%#?*` work)."""
+
+
+def check_writable_path(path: str | Path, what: str = "--out") -> Path:
+    """`path` made absolute, or ValueError naming `what` and the characters it may not hold."""
+    full = Path(path).expanduser().resolve()
+    bad = sorted({c for c in str(full) if c in REFUSED})
+    if bad:
+        raise ValueError(
+            f"{what} {full}: a path holding {' '.join(map(repr, bad))} cannot be used (orbax, "
+            "which writes the checkpoints, reads these as glob patterns and loses the data); "
+            "choose a directory without them"
+        )
+    return full

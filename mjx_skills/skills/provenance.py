@@ -1,0 +1,79 @@
+"""Where a skill library comes from: the package version, the git commit and a digest of
+the scenes it was built in, and why a library may not match this code (`stale_reasons`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import subprocess
+from pathlib import Path
+from typing import Any
+
+from mjx_skills import __version__
+from mjx_skills.envs.baxter import XML_DIR
+
+
+def scene_files() -> list[Path]:
+    """The MJCF files of the one-cube scenes (the skills' and the thesis's tasks') and the
+    files they include: the physics the library was built for and is used in."""
+    from mjx_skills.envs.registry import ENVS
+
+    todo, seen = {cls.scene for cls in ENVS.values() if cls.n_objects == 1}, set()
+    while todo:
+        name = todo.pop()
+        seen.add(name)
+        todo |= set(re.findall(r'<include file="([^"]+)"', (XML_DIR / name).read_text())) - seen
+    return sorted(XML_DIR / name for name in seen)
+
+
+def scenes_digest() -> str:
+    """SHA-256 (first 16 hex digits) of `scene_files()`: the skills were trained and their
+    models fitted in these scenes, so a library built before one of them changed describes
+    other physics. (Scenes added for other tasks, such as the two-cube ones, do not count.)"""
+    digest = hashlib.sha256()
+    for path in scene_files():
+        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _git_commit() -> str:
+    """The checkout's commit ('+dirty' when tracked files differ), or 'unknown'."""
+    root = XML_DIR.parent
+    try:
+        head = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=10,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return head + ("+dirty" if dirty.strip() else "")
+
+
+def provenance() -> dict[str, str]:
+    """What built a library: package version, git commit and the scenes' digest."""
+    return {"version": __version__, "commit": _git_commit(), "scenes": scenes_digest()}
+
+
+def stale_reasons(manifest: dict[str, Any]) -> list[str]:
+    """Why a library may not match this code: another package version, or other scenes
+    (or no record of either: built before they were recorded). Empty when it matches."""
+    reasons = []
+    if manifest.get("version") != __version__:
+        reasons.append(f"built by version {manifest.get('version')}, this is {__version__}")
+    if manifest.get("scenes") is None:
+        reasons.append("built before the scenes' digest was recorded")
+    elif manifest["scenes"] != scenes_digest():
+        reasons.append("built in other scenes (xml/ has changed since)")
+    return reasons

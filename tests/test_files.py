@@ -1,0 +1,350 @@
+"""Files read back robustly after a crash, and stored artifacts verified when loaded: the
+JSONL reader drops exactly a half-written last line, a damaged file is refused naming it,
+stored cells, skill libraries and checkpoints whose bytes changed are never used, and
+TensorBoard or the progress bar failing never stops a run."""
+
+from __future__ import annotations
+
+import json
+import logging
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mjx_skills import sweep
+from mjx_skills.core import files
+from mjx_skills.sweeps import cells
+from mjx_skills.sweeps.experiments import Experiment
+from mjx_skills.training import metrics_log
+from mjx_skills.training.checkpoint import Checkpoints
+from mjx_skills.training.metrics_log import MetricsWriter, read_metrics
+from mjx_skills.training.runner import load_config, summary
+
+ROWS = st.lists(
+    st.fixed_dictionaries(
+        {
+            "epoch": st.integers(1, 10**6),
+            "seed": st.integers(0, 9),
+            "eval_success": st.floats(allow_nan=False),
+            "note": st.text(max_size=8),
+        }
+    ),
+    min_size=1,
+    max_size=6,
+)
+
+
+def _jsonl(rows: list[dict], ascii_only: bool) -> bytes:
+    return "".join(json.dumps(r, ensure_ascii=ascii_only) + "\n" for r in rows).encode()
+
+
+def _flip(path: Path, offset: int | None = None) -> None:
+    """Invert one byte of `path` (its middle by default)."""
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2 if offset is None else offset] ^= 0xFF
+    path.write_bytes(bytes(data))
+
+
+# ------------------------------------------------------------------------------ JSONL
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(rows=ROWS, ascii_only=st.booleans())
+def test_every_truncation_reads_back_as_its_complete_lines(tmp_path, rows, ascii_only):
+    """A crash can cut an append anywhere (inside a UTF-8 character too): the reader returns
+    the lines written whole and never raises."""
+    data = _jsonl(rows, ascii_only)
+    path = tmp_path / "metrics.jsonl"
+    for cut in range(len(data) + 1):
+        path.write_bytes(data[:cut])
+        assert files.read_jsonl(path) == rows[: data[:cut].count(b"\n")]
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(rows=ROWS.filter(lambda r: len(r) >= 2), data=st.data())
+def test_damage_before_the_last_line_raises_naming_file_and_line(tmp_path, rows, data):
+    line = data.draw(st.integers(0, len(rows) - 2))
+    lines = _jsonl(rows, True).decode().splitlines()
+    lines[line] = lines[line][: len(lines[line]) // 2]  # a cut line inside the file
+    path = tmp_path / "metrics.jsonl"
+    path.write_text("".join(x + "\n" for x in lines))
+    with pytest.raises(ValueError, match=rf"{path}.* line {line + 1}\b"):
+        files.read_jsonl(path)
+
+
+def test_a_half_written_last_line_is_dropped_with_a_warning(tmp_path, caplog):
+    path = tmp_path / "metrics.jsonl"
+    path.write_text('{"epoch": 1, "seed": 0}\n{"epoch": 2, "seed": 0, "eval_succ')
+    with caplog.at_level(logging.WARNING):
+        assert files.read_jsonl(path) == [{"epoch": 1, "seed": 0}]
+    assert str(path) in caplog.text and "line 2 is half written" in caplog.text
+    path.write_text('{"epoch": 1}\n\x00\x00\x00\n')  # a tail of zeros a power loss can leave
+    assert files.read_jsonl(path) == [{"epoch": 1}]
+
+
+def test_a_damaged_json_file_is_named(tmp_path):
+    path = tmp_path / "config.json"
+    files.write_json_atomic(path, {"method": "ddpg_her", "train": {"epochs": 3}}, indent=2)
+    assert files.read_json(path)["train"]["epochs"] == 3
+    path.write_text(path.read_text()[:25])
+    with pytest.raises(ValueError, match=rf"{path} is damaged or half written"):
+        files.read_json(path)
+
+
+def test_an_atomic_write_leaves_the_old_file_when_it_fails(tmp_path, monkeypatch):
+    path = tmp_path / "results.csv"
+    files.write_text_atomic(path, "old\n")
+
+    def fail(*_):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(files.os, "replace", fail)
+    with pytest.raises(OSError, match="disk full"):
+        files.write_text_atomic(path, "new\n")
+    assert path.read_text() == "old\n" and [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+def test_tree_digest_sees_contents_shapes_and_dtypes():
+    tree = {"a": np.arange(6, dtype=np.float32), "b": np.zeros(2, bool)}
+    same = {"a": np.arange(6, dtype=np.float32), "b": np.zeros(2, bool)}
+    assert files.tree_sha256(tree) == files.tree_sha256(same)
+    for other in (
+        {**tree, "a": tree["a"].reshape(2, 3)},
+        {**tree, "a": tree["a"].astype(np.int32)},
+        {**tree, "b": np.ones(2, bool)},
+    ):
+        assert files.tree_sha256(other) != files.tree_sha256(tree)
+
+
+# ---------------------------------------------------------------- the run's own files
+def _half_written_run(tmp_path: Path) -> Path:
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    rows = [
+        {"epoch": e, "seed": s, "eval_success": 0.5, "wall_s": 1.0 * e}
+        for e in (1, 2)
+        for s in (0, 1)
+    ]
+    (run_dir / "metrics.jsonl").write_text(
+        "".join(json.dumps(r) + "\n" for r in rows) + '{"epoch": 3, "seed": 0, "eval_succ'
+    )
+    return run_dir
+
+
+def test_readers_of_a_run_take_its_half_written_log(tmp_path):
+    """What `train --resume`, the sweep, evaluate and the summary read: the whole lines."""
+    run_dir = _half_written_run(tmp_path)
+    assert [r["epoch"] for r in read_metrics(run_dir)] == [1, 1, 2, 2]
+    assert "epoch 2, eval success 0.50" in summary(run_dir)
+    cell = types.SimpleNamespace(samples=0, epochs=2, seeds=2)
+    assert sweep.finished(run_dir, cell)
+    assert not sweep.finished(run_dir, types.SimpleNamespace(samples=0, epochs=3, seeds=2))
+
+
+def test_resuming_drops_the_half_line_and_appends_whole_ones(tmp_path):
+    run_dir = _half_written_run(tmp_path)
+    writer = MetricsWriter(run_dir, resume_from_epoch=2)
+    writer.write(3, {"eval_success": np.array([0.75, 1.0]), "env_steps": np.array([9, 9])})
+    writer.close()
+    text = (run_dir / "metrics.jsonl").read_text()
+    assert text.endswith("\n") and "eval_succ\n" not in text
+    assert [(r["epoch"], r["seed"]) for r in map(json.loads, text.splitlines())] == [
+        (1, 0),
+        (1, 1),
+        (2, 0),
+        (2, 1),
+        (3, 0),
+        (3, 1),
+    ]
+
+
+def test_a_truncated_config_json_is_an_error_naming_it(tmp_path):
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "config.json").write_text('{"method": "ddpg_her", "train": {"ta')
+    with pytest.raises(ValueError, match=rf"{run_dir / 'config.json'} is damaged"):
+        load_config(run_dir)
+
+
+# --------------------------------------------------------------- optional machinery
+METRICS = {"eval_success": np.array([0.5]), "env_steps": np.array([100])}
+
+
+def test_an_unwritable_tensorboard_directory_does_not_stop_the_log(tmp_path, caplog):
+    (tmp_path / "tb").write_text("a file where the tb/ directory would go")
+    with caplog.at_level(logging.WARNING):
+        writer = MetricsWriter(tmp_path)
+        writer.write(1, METRICS, wall_s=0.0)
+        writer.close()
+    assert [r["epoch"] for r in read_metrics(tmp_path)] == [1]
+    assert "TensorBoard logging is off" in caplog.text
+
+
+def test_a_summary_writer_failing_later_warns_once_and_the_log_goes_on(
+    tmp_path, monkeypatch, caplog
+):
+    import tensorboardX
+
+    calls = []
+
+    class DiskFull:
+        def __init__(self, *_):
+            pass
+
+        def add_scalar(self, *_):
+            calls.append(1)
+            raise OSError("No space left on device")
+
+        def close(self):
+            raise OSError("No space left on device")
+
+    monkeypatch.setattr(tensorboardX, "SummaryWriter", DiskFull)
+    with caplog.at_level(logging.WARNING):
+        writer = MetricsWriter(tmp_path)
+        for epoch in (1, 2, 3):
+            writer.write(epoch, METRICS, wall_s=0.0)
+        writer.close()
+    assert [r["epoch"] for r in read_metrics(tmp_path)] == [1, 2, 3]
+    assert len(calls) == 1 and caplog.text.count("TensorBoard logging failed") == 1
+
+    class Refused(DiskFull):
+        def __init__(self, *_):
+            raise PermissionError("tb/ is read-only")
+
+    monkeypatch.setattr(tensorboardX, "SummaryWriter", Refused)
+    writer = MetricsWriter(tmp_path, resume_from_epoch=3)
+    writer.write(4, METRICS, wall_s=0.0)
+    writer.close()
+    assert [r["epoch"] for r in read_metrics(tmp_path)] == [1, 2, 3, 4]
+
+
+def test_a_failing_progress_bar_is_dropped_with_one_warning(monkeypatch, caplog):
+    class Broken:
+        def __init__(self, *_, **__):
+            pass
+
+        def update(self, n=1):
+            raise OSError("the terminal went away")
+
+        set_postfix = close = update
+
+    monkeypatch.setattr(metrics_log, "tqdm", Broken)
+    with caplog.at_level(logging.WARNING):
+        bar = metrics_log.progress_bar(3, 0, enabled=True, desc="x")
+        for _ in range(3):
+            bar.set_postfix(eval_success="0.5")
+            bar.update(1)
+        bar.close()
+    assert caplog.text.count("progress bar failed") == 1
+
+    def refuse(*_, **__):
+        raise RuntimeError("no terminal")
+
+    monkeypatch.setattr(metrics_log, "tqdm", refuse)
+    bar = metrics_log.progress_bar(3, 0, enabled=True, desc="x")
+    bar.update(1)
+    bar.close()
+
+
+# ------------------------------------------------------------------ stored cells
+@pytest.fixture
+def stored_cell(tmp_path):
+    """(cell, its directory in a fresh store) of a cell saved from a hand-written run."""
+    exp = Experiment(
+        name="tiny",
+        description="test",
+        tasks=("transit",),
+        methods=("ddpg_her",),
+        seeds=1,
+        epochs=1,
+        train={"envs": 2, "cycles": 2},
+    )
+    cell = exp.cells()[0]
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "metrics.jsonl").write_text('{"epoch": 1, "seed": 0, "eval_success": 0.5}\n')
+    where = cells.save(cell, run_dir, tmp_path / "store")
+    return cell, where
+
+
+def test_a_stored_cell_records_and_checks_its_checksums(stored_cell):
+    cell, where = stored_cell
+    assert json.loads((where / cells.CHECKSUMS).read_text()).keys() == set(cells.FILES)
+    assert cells.stored(cell, where.parent) == where
+    assert cells.read_stored_metrics(where) == [{"epoch": 1, "seed": 0, "eval_success": 0.5}]
+
+
+@pytest.mark.parametrize("name", cells.FILES)
+def test_a_stored_cell_with_a_flipped_byte_is_refused_naming_the_file(stored_cell, name):
+    cell, where = stored_cell
+    _flip(where / name, offset=len((where / name).read_bytes()) - 3)
+    with pytest.raises(ValueError, match=rf"{where} is damaged: {name} does not match"):
+        cells.stored(cell, where.parent)
+    if name == "metrics.jsonl":
+        with pytest.raises(ValueError, match=rf"{where} is damaged: metrics.jsonl"):
+            cells.read_stored_metrics(where)
+
+
+@pytest.mark.parametrize("name", cells.FILES)
+def test_a_stored_cell_missing_a_file_is_refused_naming_it(stored_cell, name):
+    cell, where = stored_cell
+    (where / name).unlink()
+    with pytest.raises(ValueError, match=rf"{where} is damaged: {name} is missing"):
+        cells.stored(cell, where.parent)
+
+
+def test_a_cell_stored_before_checksums_is_used_with_a_warning(stored_cell, caplog):
+    cell, where = stored_cell
+    (where / cells.CHECKSUMS).unlink()
+    with caplog.at_level(logging.WARNING):
+        assert cells.stored(cell, where.parent) == where
+    assert "used unverified" in caplog.text
+
+
+def test_every_committed_cell_matches_its_checksums():
+    committed = sorted(d for d in cells.STORE.iterdir() if d.is_dir())
+    assert committed
+    for where in committed:
+        assert (where / cells.CHECKSUMS).exists(), where
+        cells.verify(where)
+        assert files.read_jsonl(where / "metrics.jsonl")  # whole: no line dropped
+
+
+# ------------------------------------------------------------------ checkpoints
+def test_a_checkpoint_whose_contents_changed_falls_back_to_the_previous_one(tmp_path, caplog):
+    """Bytes flipped in a saved array still decode, to other numbers: the digest recorded at
+    save time refuses them and the epoch before is restored."""
+    tree = {"w": np.arange(4096, dtype=np.float32), "n": np.arange(3, dtype=np.int32)}
+    ckpt = Checkpoints(tmp_path / "checkpoints")
+    ckpt.save(1, tree)
+    ckpt.save(2, {**tree, "w": tree["w"] + 1})
+    assert set(json.loads((tmp_path / "checkpoints" / "digests.json").read_text())) == {"1", "2"}
+    data = sorted(
+        (p for p in (tmp_path / "checkpoints" / "2").rglob("*") if p.is_file()),
+        key=lambda p: p.stat().st_size,
+    )[-1]
+    _flip(data)
+    with caplog.at_level(logging.WARNING):
+        epoch, restored = ckpt.restore(tree)
+    ckpt.close()
+    assert epoch == 1 and np.array_equal(restored["w"], tree["w"])
+    assert list((tmp_path / "checkpoints").glob("2.corrupt-*"))
+    assert "epoch 2" in caplog.text
+
+
+def test_a_checkpoint_without_a_recorded_digest_restores_with_a_warning(tmp_path, caplog):
+    tree = {"w": np.arange(8, dtype=np.float32)}
+    ckpt = Checkpoints(tmp_path / "checkpoints")
+    ckpt.save(1, tree)
+    (tmp_path / "checkpoints" / "digests.json").unlink()  # as an older run's
+    with caplog.at_level(logging.WARNING):
+        epoch, restored = ckpt.restore(tree)
+    ckpt.close()
+    assert epoch == 1 and np.array_equal(restored["w"], tree["w"])
+    assert "no recorded digest" in caplog.text

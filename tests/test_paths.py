@@ -1,0 +1,67 @@
+"""Every legal path works or is refused before training starts (orbax globs its directory)."""
+
+import string
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mjx_skills.config import TrainConfig
+from mjx_skills.core.paths import check_writable_path
+from mjx_skills.training.checkpoint import Checkpoints
+from mjx_skills.training.runner import RunArgs, train_run
+
+TREE = {"a": jnp.arange(4.0), "b": {"c": jnp.ones((2, 3)), "d": jnp.arange(3, dtype=jnp.int32)}}
+CHARACTERS = string.punctuation + " \t\n\x01é中"
+
+
+def _round_trips_or_is_refused(directory) -> str:
+    """'refused' if the path check refuses `directory`, 'ok' if a checkpoint saved there
+    restores to the same arrays; fails the test otherwise (a path that loses the data)."""
+    try:
+        check_writable_path(directory)
+    except ValueError:
+        assert not directory.exists(), "refused before anything is written"
+        return "refused"
+    checkpoints = Checkpoints(directory / "checkpoints")
+    checkpoints.save(1, TREE)
+    checkpoints.close()
+    epoch, restored = Checkpoints(directory / "checkpoints").restore(TREE)
+    assert epoch == 1
+    np.testing.assert_array_equal(restored["b"]["c"], TREE["b"]["c"])
+    np.testing.assert_array_equal(restored["a"], TREE["a"])
+    return "ok"
+
+
+@pytest.mark.parametrize("character", list(CHARACTERS))
+def test_every_character_in_a_run_path_works_or_is_refused(tmp_path, character):
+    for name in (f"run{character}x", f"{character}", f"a{character}b{character}c"):
+        _round_trips_or_is_refused(tmp_path / name)
+
+
+@pytest.mark.parametrize("name", ["runs[v2]", "x[ab]y", "[x]", "a[!b]", "back\\slash"])
+def test_the_reported_paths_are_refused(tmp_path, name):
+    """The glob classes and the backslash that lost trained runs (issue, row 1)."""
+    assert _round_trips_or_is_refused(tmp_path / name) == "refused"
+
+
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(name=st.text(st.sampled_from(CHARACTERS + "ab"), min_size=1, max_size=6))
+def test_random_names_work_or_are_refused(tmp_path_factory, name):
+    if name in (".", "..") or "/" in name:
+        return
+    _round_trips_or_is_refused(tmp_path_factory.mktemp("p") / name)
+
+
+def test_training_into_such_a_path_is_refused_before_anything_is_written(tmp_path):
+    out = tmp_path / "runs[v2]"
+    args = RunArgs(train=TrainConfig(task="transit", epochs=1, out=str(out), progress=False))
+    with pytest.raises(ValueError, match=r"--out .*'\['"):
+        train_run(args)
+    assert not out.exists()
+    with pytest.raises(ValueError, match="--resume"):
+        train_run(RunArgs(resume=str(out / "transit" / "ddpg_her" / "1")))
