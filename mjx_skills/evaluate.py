@@ -30,7 +30,7 @@ from mjx_skills.agents import ddpg
 from mjx_skills.cli_args import run_parser
 from mjx_skills.core import compile_cache
 from mjx_skills.core.learner import Learner
-from mjx_skills.core.precision import use_float32
+from mjx_skills.core.precision import require_float32, use_float32
 from mjx_skills.envs.registry import make
 from mjx_skills.training.checkpoint import Checkpoints
 from mjx_skills.training.epoch import init_carry, make_evaluate, over_seeds, seed_keys
@@ -68,7 +68,9 @@ def has_checkpoint(run_dir: Path) -> bool:
 
 def load_trained(run_dir: Path, physics: str = "native") -> TrainedRun:
     """Restore the newest checkpoint of `run_dir` without training or writing anything
-    (`runner.train_and_keep` would continue an unfinished run and rewrite its log)."""
+    (`runner.train_and_keep` would continue an unfinished run and rewrite its log).
+    ValueError while JAX has 64-bit types on (`precision`: runs are float32)."""
+    require_float32()
     args = load_config(run_dir)
     if not has_checkpoint(run_dir):
         raise FileNotFoundError(f"{run_dir} has no checkpoint: nothing to evaluate")

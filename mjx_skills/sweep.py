@@ -256,6 +256,8 @@ def run_cells_local(
     if jobs <= 1 or cells[0].samples:  # library cells share one work dir: one at a time
         for i in todo:
             run_cell(cells[i], str(dirs[i]), progress, str(store))
+            if result_dir(cells[i], dirs[i], store) is None:
+                break  # stopped by Ctrl-C or SIGTERM (it saved): the rest wait for a rerun
     else:
         from mjx_skills.core.workers import run_pool
 
@@ -359,6 +361,9 @@ def main(argv: list[str] | None = None) -> None:
                           not args.no_progress, jobs, args.pin)  # fmt: skip
     except ValueError as err:  # a stored cell or run of another definition
         raise SystemExit(f"error: {err}") from None
+    except KeyboardInterrupt:  # the running cells finished and saved their epochs
+        print("interrupted: run the same command again to resume", file=sys.stderr)
+        raise SystemExit(130) from None
     print(f"{len(exp.cells())} cells done; results: {', '.join(map(str, paths))}")
 
 

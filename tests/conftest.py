@@ -19,3 +19,18 @@ def cached_env(name: str, physics: str = "native"):
 @pytest.fixture(scope="session")
 def env_factory():
     return cached_env
+
+
+@pytest.fixture(scope="session")
+def tiny_train() -> dict:
+    """TrainConfig fields of a tiny run (every code path of an epoch, compiled in seconds;
+    test_train's budget, so the compiled epoch is shared)."""
+    return dict(
+        task="transit",
+        envs=2,
+        cycles=2,
+        updates_per_cycle=5,
+        eval_episodes=2,
+        replay_capacity=2000,
+        progress=False,
+    )

@@ -18,25 +18,15 @@ from mjx_skills.training import epoch
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, save_config, train_and_keep
 
-# test_train's tiny budget: the persistent compile cache shares its compiled epoch.
-TINY = dict(
-    task="transit",
-    envs=2,
-    cycles=2,
-    updates_per_cycle=5,
-    eval_episodes=2,
-    replay_capacity=2000,
-    progress=False,
-)
 EPISODES = 3
 SEED = 5
 
 
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory):
+def trained(tmp_path_factory, tiny_train):
     """(run directory, final carry still in memory) of a one-epoch transit run."""
     out = tmp_path_factory.mktemp("eval_render_runs")
-    return train_and_keep(RunArgs(train=TrainConfig(**TINY, epochs=1, out=str(out))))
+    return train_and_keep(RunArgs(train=TrainConfig(**tiny_train, epochs=1, out=str(out))))
 
 
 def eval_rows(capsys, run_dir, *flags):
@@ -44,7 +34,9 @@ def eval_rows(capsys, run_dir, *flags):
     return [json.loads(line) for line in capsys.readouterr().out.splitlines()]
 
 
-def test_eval_is_the_trainers_evaluation_of_the_checkpoint(trained, capsys, env_factory):
+def test_eval_is_the_trainers_evaluation_of_the_checkpoint(
+    trained, capsys, env_factory, tiny_train
+):
     run_dir, carry = trained
     row, summary = eval_rows(capsys, run_dir, "--episodes", str(EPISODES), "--seed", str(SEED))
     assert 0.0 <= row["success"] <= 1.0
@@ -56,7 +48,7 @@ def test_eval_is_the_trainers_evaluation_of_the_checkpoint(trained, capsys, env_
     )
     # The trainer's evaluation of the agent it ended with (not read back from disk), for the
     # same key: a restore, key or behaviour that differed would move the final distance.
-    cfg = TrainConfig(**{**TINY, "eval_episodes": EPISODES})
+    cfg = TrainConfig(**{**tiny_train, "eval_episodes": EPISODES})
     env = env_factory("transit")
     evaluate = epoch.make_evaluate(make_ddpg_her(env, cfg, DDPGConfig()), env, cfg)
     key = jax.random.PRNGKey(SEED)
@@ -80,7 +72,7 @@ def test_eval_on_gym_starts_where_native_starts(trained, capsys):
     assert gym["distance"] == pytest.approx(native["distance"], abs=1e-3)
 
 
-def test_eval_bad_input_is_one_line(trained, tmp_path, capsys):
+def test_eval_bad_input_is_one_line(trained, tmp_path, capsys, tiny_train):
     run_dir, _ = trained
     cases = {"not_a_run": "not a run directory", "no_checkpoint": "has no checkpoint"}
     (tmp_path / "no_checkpoint").mkdir()
@@ -93,7 +85,7 @@ def test_eval_bad_input_is_one_line(trained, tmp_path, capsys):
     assert not (tmp_path / "no_checkpoint" / "checkpoints").exists(), "eval only reads"
     # PAS / MPAS act through skills in the JAX env: refused on gym before anything loads.
     (tmp_path / "mpas").mkdir()
-    save_config(tmp_path / "mpas", RunArgs(train=TrainConfig(**TINY), method="mpas"))
+    save_config(tmp_path / "mpas", RunArgs(train=TrainConfig(**tiny_train), method="mpas"))
     capsys.readouterr()
     with pytest.raises(SystemExit) as exit_info:
         evaluation.main([str(tmp_path / "mpas"), "--physics", "gym"])

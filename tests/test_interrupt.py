@@ -70,23 +70,11 @@ def test_sigint_mid_epoch_saves_the_epoch_and_resume_goes_on_from_it(tmp_path):
     assert [r["epoch"] for r in read_metrics(run_dir)] == [1, 2, 3, 4]
 
 
-def test_a_resume_without_checkpoint_says_it_starts_again(tmp_path, capsys):
+def test_a_resume_without_checkpoint_says_it_starts_again(tmp_path, capsys, tiny_train):
     from mjx_skills.config import TrainConfig
     from mjx_skills.training.runner import RunArgs, new_run_dir, save_config, train_run
 
-    args = RunArgs(
-        train=TrainConfig(
-            task="transit",
-            epochs=1,
-            envs=2,
-            cycles=1,
-            updates_per_cycle=2,
-            eval_episodes=2,
-            replay_capacity=500,
-            out=str(tmp_path),
-            progress=False,
-        )
-    )
+    args = RunArgs(train=TrainConfig(**tiny_train, epochs=1, out=str(tmp_path)))
     run_dir = new_run_dir(args)
     save_config(run_dir, args)
     train_run(RunArgs(resume=str(run_dir)))
@@ -102,3 +90,27 @@ def test_the_first_signal_is_deferred_and_the_second_stops_at_once():
             os.kill(os.getpid(), signal.SIGTERM)
             time.sleep(0.01)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_sweep_stops_at_the_cell_a_signal_stopped(tmp_path, monkeypatch):
+    """One cell at a time: a cell that returns unfinished (its run stopped by Ctrl-C and
+    saved) ends the sweep there, instead of the next cell starting to train."""
+    from mjx_skills import sweep
+    from mjx_skills.sweeps.experiments import Experiment
+
+    exp = Experiment(
+        name="two",
+        description="t",
+        tasks=("transit", "grasp"),
+        methods=("ddpg_her",),
+        seeds=1,
+        epochs=1,
+    )
+    started = []
+    monkeypatch.setattr(sweep, "run_cell", lambda cell, *a, **k: started.append(cell.name))
+    cells = exp.cells()
+    with pytest.raises(SystemExit, match="cells not finished"):
+        sweep.run_cells_local(
+            cells, [tmp_path / c.name for c in cells], 1, False, store=tmp_path / "store"
+        )
+    assert started == [cells[0].name]

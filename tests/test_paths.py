@@ -1,5 +1,6 @@
 """Every legal path works or is refused before training starts (orbax globs its directory)."""
 
+import shutil
 import string
 
 import jax.numpy as jnp
@@ -14,7 +15,7 @@ from mjx_skills.training.checkpoint import Checkpoints
 from mjx_skills.training.runner import RunArgs, train_run
 
 TREE = {"a": jnp.arange(4.0), "b": {"c": jnp.ones((2, 3)), "d": jnp.arange(3, dtype=jnp.int32)}}
-CHARACTERS = string.punctuation + " \t\n\x01é中"
+CHARACTERS = string.punctuation.replace("/", "") + " \t\n\x01é中"  # "/" separates names
 
 
 def _round_trips_or_is_refused(directory) -> str:
@@ -65,3 +66,18 @@ def test_training_into_such_a_path_is_refused_before_anything_is_written(tmp_pat
     assert not out.exists()
     with pytest.raises(ValueError, match="--resume"):
         train_run(RunArgs(resume=str(out / "transit" / "ddpg_her" / "1")))
+
+
+def test_a_good_run_copied_under_such_a_path_is_refused_never_set_aside(tmp_path):
+    """Reading a checkpoint there (evaluate, render, --resume) would fail and rename the
+    good checkpoint `.corrupt`: the path is refused before orbax reads anything."""
+    plain = tmp_path / "plain" / "checkpoints"
+    checkpoints = Checkpoints(plain)
+    checkpoints.save(1, TREE)
+    checkpoints.close()
+    copy = tmp_path / "runs[v2]" / "checkpoints"
+    shutil.copytree(plain, copy)
+    before = sorted(p.name for p in copy.iterdir())
+    with pytest.raises(ValueError, match="checkpoint directory"):
+        Checkpoints(copy)
+    assert sorted(p.name for p in copy.iterdir()) == before

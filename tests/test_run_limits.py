@@ -20,6 +20,7 @@ from mjx_skills.training.epoch import (
     COUNT_BASE,
     Counters,
     build,
+    committed,
     count_add,
     count_values,
     host_metrics,
@@ -27,16 +28,6 @@ from mjx_skills.training.epoch import (
 )
 from mjx_skills.training.metrics_log import MetricsWriter, read_metrics
 from mjx_skills.training.runner import RunArgs, train_run
-
-TINY = dict(
-    task="transit",
-    envs=2,
-    cycles=2,
-    updates_per_cycle=5,
-    eval_episodes=2,
-    replay_capacity=2000,
-    progress=False,
-)
 
 
 @settings(max_examples=30, deadline=None)
@@ -50,17 +41,18 @@ def test_a_counter_adds_exactly_past_int32(start, steps):
     assert int(count_values(added)) == start + sum(steps)
 
 
-def test_a_run_past_2_31_env_steps_logs_them(tmp_path):
+def test_a_run_past_2_31_env_steps_logs_them(tmp_path, tiny_train):
     """Row 4: started near the int32 limit, an epoch's counters go past it and are logged
     as positive integers (they wrapped to -2147483638 before)."""
-    cfg = TrainConfig(**TINY)
+    cfg = TrainConfig(**tiny_train)
     env, _, epoch_fn, carry = build("ddpg_her", cfg, EnvConfig())
     start = 2**31 - 10
 
     def near(value):
         return jnp.array([[value // COUNT_BASE, value % COUNT_BASE]], jnp.int32)
 
-    carry = carry.replace(counters=Counters(near(start), near(start), near(0)))
+    # committed, as `build`'s carry: another placement would compile the epoch again
+    carry = committed(carry.replace(counters=Counters(near(start), near(start), near(0))))
     _, metrics = epoch_fn(carry, None)
     metrics = host_metrics(metrics)
     per_epoch = cfg.envs * cfg.cycles
@@ -93,20 +85,22 @@ def test_distinct_accepted_seeds_are_distinct_streams(a, b):
     assert (a == b) == bool(np.array_equal(*keys))
 
 
-def test_x64_is_refused_by_the_api_before_anything_is_written(tmp_path):
+def test_x64_is_refused_by_the_api_before_anything_is_written(tmp_path, tiny_train):
     jax.config.update("jax_enable_x64", True)
     try:
         with pytest.raises(ValueError, match="float32"):
-            train_run(RunArgs(train=TrainConfig(**TINY, epochs=1, out=str(tmp_path))))
+            train_run(RunArgs(train=TrainConfig(**tiny_train, epochs=1, out=str(tmp_path))))
     finally:
         jax.config.update("jax_enable_x64", False)
     assert not list(tmp_path.iterdir())
 
 
-def test_the_cli_under_jax_enable_x64_trains_the_float32_run(tmp_path):
+def test_the_cli_under_jax_enable_x64_trains_the_float32_run(tmp_path, tiny_train):
     """Row 3: JAX_ENABLE_X64=1 in the shell trains exactly the float32 run (it changed the
     critic loss, 0.590 against 0.535, and broke resuming)."""
-    reference = train_run(RunArgs(train=TrainConfig(**TINY, epochs=1, out=str(tmp_path / "a"))))
+    reference = train_run(
+        RunArgs(train=TrainConfig(**tiny_train, epochs=1, out=str(tmp_path / "a")))
+    )
     argv = [
         "ddpg_her",
         "--task",
@@ -138,6 +132,6 @@ def test_the_cli_under_jax_enable_x64_trains_the_float32_run(tmp_path):
     assert strip(read_metrics(run)) == strip(read_metrics(reference))
     config = json.loads((run / "config.json").read_text())
     assert config["train"] == {
-        **dataclasses.asdict(TrainConfig(**TINY, epochs=1)),
+        **dataclasses.asdict(TrainConfig(**tiny_train, epochs=1)),
         "out": str(tmp_path / "b"),
     }

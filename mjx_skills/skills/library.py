@@ -32,6 +32,7 @@ from mjx_skills.core.config_io import from_dict
 from mjx_skills.core.files import read_json, tree_sha256, write_json_atomic
 from mjx_skills.core.grouped import apply_per_row, select
 from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
+from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.types import ObsLayout
 from mjx_skills.envs.baxter import LAYOUT, BaxterEnv
 from mjx_skills.envs.registry import SKILLS, make
@@ -258,7 +259,7 @@ def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
     temporary sibling, then manifest.json (with the arrays' `digest`, checked by `load`),
     then one rename, so a reader never sees half. `made_by`: the `provenance()` of the code
     that built it, taken when the build started (default: now)."""
-    directory = Path(directory).resolve()
+    directory = check_writable_path(directory, "the library directory")
     if directory.exists():
         raise FileExistsError(f"{directory} exists; a library is never overwritten")
     tmp = directory.with_name(f".{directory.name}.partial-{int(time.time())}")
@@ -300,6 +301,7 @@ def read_manifest(directory: Path) -> dict[str, Any]:
 def load(directory: Path) -> tuple[SkillLibrary, dict[str, Any]]:
     """-> (library, manifest). Refuses a missing, half-written or incompatible library."""
     manifest = read_manifest(directory)
+    check_writable_path(directory, "the library directory")  # orbax would misread it
     config = from_dict(LibraryConfig, manifest["library"])
     ddpg_config = from_dict(DDPGConfig, manifest["ddpg"])
     like = empty_like(tuple(manifest["skills"]), ddpg_config, config, manifest["memory_size"])

@@ -18,6 +18,7 @@ import jax
 import orbax.checkpoint as ocp
 
 from mjx_skills.core.files import read_json, tree_sha256, write_json_atomic
+from mjx_skills.core.paths import check_writable_path
 
 log = logging.getLogger(__name__)
 
@@ -29,8 +30,10 @@ def _signature(tree: Any) -> list[tuple]:
 
 class Checkpoints:
     def __init__(self, directory: Path, max_to_keep: int = 3):
+        # Refused before orbax touches it: it would save nothing readable there, and set a
+        # good checkpoint aside as corrupt when reading one (`core.paths`).
+        self.directory = check_writable_path(directory, "the checkpoint directory")
         options = ocp.CheckpointManagerOptions(max_to_keep=max_to_keep, create=True)
-        self.directory = Path(directory).resolve()
         self.manager = ocp.CheckpointManager(self.directory, options=options)
 
     def save(self, epoch: int, carry: Any) -> None:
