@@ -35,7 +35,6 @@ import argparse
 import csv
 import io
 import json
-import socket
 import sys
 from pathlib import Path
 
@@ -46,6 +45,7 @@ from mjx_skills.cli_args import positive_int
 from mjx_skills.core.files import read_json, write_text_atomic
 from mjx_skills.core.paths import check_writable_path
 from mjx_skills.sweeps.experiments import Cell, Experiment, adhoc, load_experiment, names
+from mjx_skills.sweeps.ray_cells import run_cells_ray
 
 RESULTS = Path("experiments") / "results"
 STORE = RESULTS / "cells"
@@ -206,41 +206,6 @@ def write_results(name: str, rows: list, per_seed: list, results: Path) -> tuple
     return csv_path, jsonl_path
 
 
-def check_ray_address(address: str, timeout_s: float = 5.0) -> None:
-    """Fail fast, naming the address, when nothing listens there ('local' starts one)."""
-    if address in ("local", "auto"):
-        return
-    host, _, port = address.removeprefix("ray://").rpartition(":")
-    try:
-        with socket.create_connection((host or "127.0.0.1", int(port)), timeout=timeout_s):
-            return
-    except (OSError, ValueError) as err:
-        raise SystemExit(f"error: cannot reach the Ray cluster at {address!r}: {err}") from None
-
-
-def run_cells_ray(cells: list[Cell], dirs: list[Path], address: str, store: Path = STORE
-                  ) -> list[str]:  # fmt: skip
-    check_ray_address(address)
-    try:
-        import ray
-    except ImportError:
-        raise SystemExit("error: --ray needs Ray: pip install -e '.[ray]'") from None
-    ray.init(address=None if address == "local" else address, include_dashboard=False,
-             log_to_driver=False, ignore_reinit_error=True)  # fmt: skip
-    task = ray.remote(num_cpus=1)(run_cell)
-    pending = {task.remote(c, str(d), False, str(store)): c
-               for c, d in zip(cells, dirs, strict=True)}  # fmt: skip
-    done_dirs: dict[Cell, str] = {}
-    with tqdm(total=len(cells), desc="cells", unit="cell") as bar:
-        while pending:
-            ready, _ = ray.wait(list(pending), num_returns=1)
-            cell = pending.pop(ready[0])
-            done_dirs[cell] = ray.get(ready[0])
-            bar.set_postfix_str(cell.name)
-            bar.update(1)
-    return [done_dirs[c] for c in cells]
-
-
 def run_cells_local(
     cells: list[Cell], dirs: list[Path], jobs: int, progress: bool, pin: bool = False,
     store: Path = STORE,
@@ -288,7 +253,7 @@ def run_sweep(
     dirs = [sweep_dir / c.name for c in cells]
     store = results / "cells"
     if ray_address:
-        run_dirs = run_cells_ray(cells, dirs, ray_address, store)
+        run_dirs = run_cells_ray(run_cell, cells, dirs, ray_address, store)
     else:
         run_dirs = run_cells_local(cells, dirs, jobs, progress, pin, store)
     if exp.kind == "library":

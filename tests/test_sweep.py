@@ -10,6 +10,7 @@ import pytest
 
 from mjx_skills import sweep
 from mjx_skills.sweeps.experiments import Experiment, load_experiment, names
+from mjx_skills.sweeps.ray_cells import check_ray_address
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import train_run
 
@@ -52,7 +53,7 @@ def test_bad_names_list_the_valid_ones(argv, message, tmp_path):
 
 def test_an_unreachable_ray_cluster_fails_fast_naming_it():
     with pytest.raises(SystemExit, match="127.0.0.1:9"):
-        sweep.check_ray_address("127.0.0.1:9", timeout_s=2.0)
+        check_ray_address("127.0.0.1:9", timeout_s=2.0)
 
 
 @pytest.fixture(scope="module")
