@@ -21,7 +21,8 @@ from mjx_skills.envs.fetch import FetchRobot
 MJX_REFUSAL = (
     "MJX is not supported for the Fetch tasks yet: mujoco.mjx.put_model refuses "
     "gymnasium-robotics' Fetch model ('(PLANE, MESH) margin/gap not implemented': 15 of its "
-    "mesh geoms have margin 0.001 and collide with the floor plane); use physics='native'"
+    "mesh geoms have margin 0.001, which MJX's plane-mesh collision does not implement); use "
+    "physics='native'"
 )
 UNUSED_FIELDS = tuple(
     "timestep n_substeps solver_iterations ls_iterations action_scale settle_substeps "
@@ -36,7 +37,7 @@ AIR_PROB, AIR_MAX = 0.5, 0.45
 """target_in_the_air: half the goals are lifted by up to 45 cm (`_sample_goal`)."""
 
 
-def check_config(task: str, config: EnvConfig) -> None:
+def refuse_unsupported(task: str, config: EnvConfig) -> None:
     """ValueError if `config` asks a Fetch task for what it does not do: MJX, or a field of
     the Baxter scenes (`UNUSED_FIELDS`) set away from its default."""
     default = EnvConfig()
@@ -71,10 +72,17 @@ class FetchTask:
     action_dim = 4
     goal_dim = 3
     n_objects = 1
+    render_view = {
+        "lookat": (1.3, 0.75, 0.55),
+        "distance": 2.5,
+        "azimuth": 132.0,
+        "elevation": -14.0,
+    }
+    """The free camera `python -m mjx_skills.render` draws from: gymnasium-robotics' own."""
 
     def __init__(self, config: EnvConfig | None = None):
         self.config = config = config or EnvConfig()
-        check_config(self.name, config)
+        self.check_config(config)
         self.robot = FetchRobot(
             self.scene,
             self.initial_qpos,
@@ -87,16 +95,18 @@ class FetchTask:
             self.robot.backend,
             self.robot.layout,
         )
-        self.obs_dim = self.robot.obs_dim
+        self.obs_dim, self.dt = self.robot.obs_dim, self.robot.dt
         self.goal_is_object = self.robot.has_object
         self.episode_length = config.episode_length or self.default_episode_length
         self.threshold = config.distance_threshold or self.default_threshold
         self.initial_gripper_xpos = jnp.asarray(self.robot.initial_gripper_xpos, jnp.float32)
         self.height_offset = self.robot.height_offset
 
-    @property
-    def name(self) -> str:
-        return type(self).__name__
+    @classmethod
+    def check_config(cls, config: EnvConfig) -> None:
+        """ValueError if this task cannot honour `config` (`refuse_unsupported`): called
+        before a run writes anything, and again when the env is made."""
+        refuse_unsupported(cls.__name__, config)
 
     # ------------------------------------------------------------------ goals
     def achieved_from_obs(self, obs: jax.Array) -> jax.Array:
