@@ -161,6 +161,12 @@ class FetchTask:
     def reset(self, key: jax.Array) -> State:
         k_object, k_goal = jax.random.split(key)
         object_xy = self.sample_object_xy(k_object) if self.goal_is_object else None
+        return self.start_state(object_xy, self.sample_goal(k_goal))
+
+    def start_state(self, object_xy: jax.Array | None, goal: jax.Array) -> State:
+        """The episode's start with the object at `object_xy` (None without an object) and
+        the desired goal `goal`: what `reset` draws, or any given start (the parity tests
+        start from gymnasium-robotics' draws)."""
         physics = self.robot.start(object_xy)
         zero = jnp.zeros((), jnp.float32)
         metrics = {
@@ -173,7 +179,7 @@ class FetchTask:
             physics=physics,
             obs=jnp.zeros(self.obs_dim),
             achieved_goal=jnp.zeros(self.goal_dim),
-            desired_goal=self.sample_goal(k_goal),
+            desired_goal=jnp.asarray(goal, jnp.float32),
             reward=zero,
             done=jnp.zeros((), bool),
             metrics=metrics,
