@@ -38,7 +38,7 @@ EPISODES = {
 controller's (FetchSlide: the push controller's, which hits the puck) plus N(0, 0.1) noise,
 each episode's actions computed once from our env and sent to both. The seeds give contact:
 push random seed 1 and every scripted episode move the object. FetchSlide's fingertips
-start pressed on its low-friction table, and most of its contact episodes are chaotic: the
+start 3.7 mm deep in its low-friction table, and most of its contact episodes are chaotic: the
 reference itself, run again with its solver's warm start off, ends centimetres away
 (docs/simulation.md); its seeds here are ones where it does not (checked below)."""
 
