@@ -116,7 +116,14 @@ def reset_keys(key: jax.Array, episodes: int) -> jax.Array:
     return jax.random.split(k_reset, episodes)
 
 
-def check_gym_supports(method: str) -> None:
+def check_gym_supports(method: str, task: str) -> None:
+    from mjx_skills.envs.registry import FETCH
+
+    if task in FETCH:
+        raise UnsupportedOnGym(
+            f"{task} is not served by the gym adapter (it hosts the Baxter envs); use "
+            "--physics native"
+        )
     if method not in FLAT_METHODS:
         raise UnsupportedOnGym(
             f"{method} is not supported on the gym adapter (its skills and library run in "
@@ -126,7 +133,7 @@ def check_gym_supports(method: str) -> None:
 
 def evaluate_gym(run: TrainedRun, key: jax.Array, episodes: int) -> tuple[np.ndarray, np.ndarray]:
     """-> (success, final distance) per seed on the gymnasium adapter (flat methods)."""
-    check_gym_supports(run.args.method)
+    check_gym_supports(run.args.method, run.args.train.task)
     from mjx_skills.envs.gym import BaxterGymEnv  # gymnasium is an optional dependency
 
     fields = dataclasses.asdict(run.args.env.for_evaluation())
@@ -160,7 +167,8 @@ def logged_eval_success(run_dir: Path, epoch: int, n_seeds: int) -> list[float |
 def evaluate_run(run_dir: Path, episodes: int, physics: str, seed: int) -> list[dict]:
     """-> one result row per trained seed (the rows `main` prints before the summary)."""
     if physics == "gym":  # said before anything is restored or compiled
-        check_gym_supports(load_config(run_dir).method)
+        args = load_config(run_dir)
+        check_gym_supports(args.method, args.train.task)
     run = load_trained(run_dir, physics="native" if physics == "gym" else physics)
     key = jax.random.PRNGKey(seed)
     evaluate = evaluate_gym if physics == "gym" else evaluate_jax

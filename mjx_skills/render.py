@@ -184,9 +184,16 @@ def solved_only(qpos, grip, success) -> tuple[np.ndarray, np.ndarray]:
 
 
 def draw_frames(
-    model: Any, qpos: np.ndarray, grip: np.ndarray, width: int, height: int, camera: str | None
+    model: Any,
+    qpos: np.ndarray,
+    grip: np.ndarray,
+    width: int,
+    height: int,
+    camera: str | None,
+    default_view: dict = DEFAULT_VIEW,
 ) -> np.ndarray:
-    """(frames, height, width, 3) uint8: each qpos set on one MjData and drawn."""
+    """(frames, height, width, 3) uint8: each qpos set on one MjData and drawn (from
+    `default_view`, a free camera, unless `camera` names one of the model's)."""
     import mujoco
 
     if camera is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0:
@@ -195,9 +202,9 @@ def draw_frames(
     view = camera
     if view is None:
         view = mujoco.MjvCamera()
-        view.lookat[:] = DEFAULT_VIEW["lookat"]
-        view.distance = DEFAULT_VIEW["distance"]
-        view.azimuth, view.elevation = DEFAULT_VIEW["azimuth"], DEFAULT_VIEW["elevation"]
+        view.lookat[:] = default_view["lookat"]
+        view.distance = default_view["distance"]
+        view.azimuth, view.elevation = default_view["azimuth"], default_view["elevation"]
     # The offscreen buffer bounds the image size (640 x 480 by default); this model is ours.
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
     model.vis.global_.offheight = max(model.vis.global_.offheight, height)
@@ -275,11 +282,14 @@ def main(argv: list[str] | None = None) -> None:
         )
         if args.solved:
             qpos, grip = solved_only(qpos, grip, success)
-        frames = draw_frames(run.env.model, qpos, grip, args.width, args.height, args.camera)
+        view = getattr(run.env, "render_view", DEFAULT_VIEW)  # Fetch: gymnasium-robotics'
+        frames = draw_frames(
+            run.env.model, qpos, grip, args.width, args.height, args.camera, default_view=view
+        )
     except (FileNotFoundError, ValueError, NotImplementedError) as err:
         # Not a run, no checkpoint, an unknown camera, a missing skill library.
         raise SystemExit(f"error: {err}") from None
-    frame_s = run.env.model.opt.timestep * run.env.config.n_substeps
+    frame_s = getattr(run.env, "dt", 0.0) or run.env.model.opt.timestep * run.env.config.n_substeps
     write_video(out, frames, frame_s)
     drawn = f"the {len(qpos)} solved of {args.episodes}" if args.solved else args.episodes
     print(

@@ -10,7 +10,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import mjx_skills.envs.gym  # noqa: F401  (registers MjxSkills/*-v0)
-from mjx_skills.envs import ENVS
+from mjx_skills.envs import BAXTER as ENVS  # the adapter hosts the Baxter envs
 from mjx_skills.envs.controllers import make_scripted_policy
 from mjx_skills.envs.gym import BaxterGymEnv, gym_id
 

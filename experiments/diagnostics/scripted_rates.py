@@ -48,7 +48,7 @@ def measured() -> dict[str, dict]:
 
 def section() -> str:
     """The page's section: every env's committed success, in the registry's order."""
-    from mjx_skills.envs import ENVS
+    from mjx_skills.envs import BAXTER as ENVS  # the scripted controllers drive Baxter
 
     rows = measured()
     missing = [name for name in ENVS if name not in rows]
@@ -72,7 +72,8 @@ def main() -> None:
     p.add_argument("--write", action="store_true", help="replace the section in the page")
     args = p.parse_args()
     if args.measure:
-        from mjx_skills.envs import ENVS, make
+        from mjx_skills.envs import BAXTER as ENVS
+        from mjx_skills.envs import make
         from mjx_skills.skills.library import provenance
 
         made_by = provenance()

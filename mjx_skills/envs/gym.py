@@ -26,7 +26,7 @@ from gymnasium import spaces
 
 from mjx_skills.config import EnvConfig
 from mjx_skills.envs.baxter import smooth_path
-from mjx_skills.envs.registry import ENVS, make
+from mjx_skills.envs.registry import BAXTER, FETCH, make
 
 _IMPORT_PID = os.getpid()
 
@@ -86,6 +86,11 @@ class BaxterGymEnv(gymnasium.Env):
 
     def __init__(self, task: str = "pick_move", render_mode: str | None = None, **config):
         _check_not_forked()
+        if task in FETCH:
+            raise ValueError(
+                f"{task}: the gym adapter hosts the Baxter envs only; gymnasium-robotics' own "
+                f"{FETCH[task].__name__}-v4 is the Fetch task as a gymnasium env"
+            )
         _check_render_mode(task, render_mode)
         if config.pop("physics", "native") != "native":
             raise ValueError("physics: the gym adapter steps native MuJoCo; leave it unset")
@@ -221,7 +226,9 @@ def gym_id(task: str) -> str:
 
 # No max_episode_steps: the env truncates after its own episode length, which a user's
 # episode_length=... changes (a TimeLimit fixed at registration would not follow it).
-for _name in ENVS:
+# The Baxter envs only: the adapter replays their mocap path and sensors; the Fetch tasks
+# are gymnasium-robotics' own envs already (FetchReach-v4, ...).
+for _name in BAXTER:
     if gym_id(_name) not in gymnasium.registry:
         gymnasium.register(
             gym_id(_name), "mjx_skills.envs.gym:BaxterGymEnv", kwargs={"task": _name}

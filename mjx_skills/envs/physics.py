@@ -8,6 +8,11 @@ Both keep the full physics state in a `PhysicsState` pytree and return `sensorda
 same meaning: the sensors of the state at the start of the last substep (MuJoCo computes
 sensors in the forward pass that precedes integration, in C as in MJX). Env code reads only
 `sensordata` and the generic `qpos`/`qvel` accessors, so it is written once for both.
+
+The native backend also serves envs that need more than that (the Fetch tasks, which
+replay gymnasium-robotics' own timing): the mocap quaternion as a control input
+(`mocap_quat=True`), the state before the last substep (`step_with_previous`) and the
+sensors of any state vector (`sense`).
 """
 
 from __future__ import annotations
@@ -34,9 +39,11 @@ with contextlib.redirect_stdout(io.StringIO()):
     from mujoco import mjx
 
 # The native state vector: MuJoCo's "full physics" state (time, qpos, qvel, act, ...).
-# Mocap positions are inputs, passed per step together with ctrl.
+# Mocap positions (and, for envs that ask, quaternions) are inputs, passed per step together
+# with ctrl.
 _NATIVE_STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 _NATIVE_CONTROL_SPEC = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_MOCAP_POS
+_NATIVE_CONTROL_SPEC_QUAT = _NATIVE_CONTROL_SPEC | mujoco.mjtState.mjSTATE_MOCAP_QUAT
 
 
 @struct.dataclass
@@ -136,8 +143,11 @@ class NativeBackend:
 
     name = "native"
 
-    def __init__(self, model: mujoco.MjModel, n_threads: int = 0):
+    def __init__(self, model: mujoco.MjModel, n_threads: int = 0, mocap_quat: bool = False):
+        """`mocap_quat`: each substep's mocap input is position and quaternion (7 numbers
+        per mocap body) instead of the position only."""
         self.model = model
+        self.control_spec = _NATIVE_CONTROL_SPEC_QUAT if mocap_quat else _NATIVE_CONTROL_SPEC
         self.n_threads = n_threads or usable_cores()
         self._datas = [mujoco.MjData(model) for _ in range(self.n_threads)]
         self._pool = rollout.Rollout(nthread=self.n_threads) if self.n_threads > 1 else None
@@ -155,23 +165,41 @@ class NativeBackend:
         return PhysicsState(data=state, sensordata=jnp.zeros(self.model.nsensordata, jnp.float32))
 
     def step(self, state: PhysicsState, ctrl: jax.Array, mocap_path: jax.Array) -> PhysicsState:
-        n_substeps = mocap_path.shape[0]
-        ctrl = jnp.broadcast_to(ctrl, (n_substeps, ctrl.shape[-1]))
-        control = jnp.concatenate([ctrl, mocap_path.reshape(n_substeps, -1)], axis=-1)
-        out_shape = (
-            jax.ShapeDtypeStruct(state.data.shape, jnp.float32),
-            jax.ShapeDtypeStruct((self.model.nsensordata,), jnp.float32),
-        )
-        new_state, sensordata = jax.pure_callback(
-            lambda s, c: self._rollout_host(s, c, n_substeps),
-            out_shape,
-            state.data,
+        """mocap_path: (n_substeps, 3), or (n_substeps, 7) position and quaternion with
+        `mocap_quat`."""
+        return self._run(state.data, _controls(ctrl, mocap_path), previous=False)[0]
+
+    def step_with_previous(
+        self, state: PhysicsState, ctrl: jax.Array, mocap_path: jax.Array
+    ) -> tuple[PhysicsState, jax.Array]:
+        """`step`, and also the state vector before the last substep (the state whose
+        kinematics MuJoCo's MjData still holds after `mj_step`)."""
+        return self._run(state.data, _controls(ctrl, mocap_path), previous=True)
+
+    def sense(self, data: jax.Array, control: jax.Array) -> jax.Array:
+        """(nsensordata,) the sensors of the state vector `data` itself: one substep's rollout
+        from it with `control` (one substep's ctrl and mocap inputs), of which only the
+        sensors, computed before the substep integrates, are kept."""
+        return self._run(data, control[None], previous=False)[0].sensordata
+
+    def _run(self, data: jax.Array, control: jax.Array, previous: bool):
+        """-> (PhysicsState after len(control) substeps, the state vector before the last
+        substep if `previous` else None)."""
+        n_substeps = control.shape[0]
+        vector = jax.ShapeDtypeStruct(data.shape, jnp.float32)
+        out_shape = (vector, jax.ShapeDtypeStruct((self.model.nsensordata,), jnp.float32))
+        out = jax.pure_callback(
+            lambda s, c: self._rollout_host(s, c, n_substeps, previous),
+            out_shape + ((vector,) if previous else ()),
+            data,
             control.astype(jnp.float32),
             vmap_method="broadcast_all",
         )
-        return PhysicsState(data=new_state, sensordata=sensordata)
+        return PhysicsState(data=out[0], sensordata=out[1]), (out[2] if previous else None)
 
-    def _rollout_host(self, state: np.ndarray, control: np.ndarray, n_substeps: int):
+    def _rollout_host(
+        self, state: np.ndarray, control: np.ndarray, n_substeps: int, previous: bool = False
+    ):
         lead = state.shape[:-1]
         state64 = np.asarray(state, np.float64).reshape(-1, self.nstate)
         control64 = np.asarray(control, np.float64).reshape(state64.shape[0], n_substeps, -1)
@@ -179,21 +207,24 @@ class NativeBackend:
             if self._pool is None:
                 states, sensors = rollout.rollout(
                     self.model, self._datas[0], state64, control64,
-                    control_spec=_NATIVE_CONTROL_SPEC, nstep=n_substeps,
+                    control_spec=self.control_spec, nstep=n_substeps,
                 )  # fmt: skip
             else:
                 states, sensors = self._pool.rollout(
                     self.model, self._datas, state64, control64,
-                    control_spec=_NATIVE_CONTROL_SPEC, nstep=n_substeps,
+                    control_spec=self.control_spec, nstep=n_substeps,
                 )  # fmt: skip
         new_state = states[:, -1].astype(np.float32).reshape(*lead, self.nstate)
         sensordata = sensors[:, -1].astype(np.float32).reshape(*lead, -1)
-        return new_state, sensordata
+        if not previous:
+            return new_state, sensordata
+        before = state64 if n_substeps == 1 else states[:, -2]
+        return new_state, sensordata, before.astype(np.float32).reshape(*lead, self.nstate)
 
     def settle(self, state, mocap_pos, phases, edit):
         (ctrl_a, n_a), (ctrl_b, n_b) = phases
         state = self.step(state, ctrl_a, jnp.broadcast_to(mocap_pos, (n_a, 3)))
-        state = self._set_qpos_qvel(state, *edit(self.qpos(state), self.qvel(state)))
+        state = self.set_qpos_qvel(state, *edit(self.qpos(state), self.qvel(state)))
         return self.step(state, ctrl_b, jnp.broadcast_to(mocap_pos, (n_b, 3)))
 
     def qpos(self, state: PhysicsState) -> jax.Array:
@@ -202,9 +233,16 @@ class NativeBackend:
     def qvel(self, state: PhysicsState) -> jax.Array:
         return state.data[..., self._qvel_slice]
 
-    def _set_qpos_qvel(self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
+    def set_qpos_qvel(self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
         data = state.data.at[..., self._qpos_slice].set(qpos).at[..., self._qvel_slice].set(qvel)
         return state.replace(data=data)
+
+
+def _controls(ctrl: jax.Array, mocap_path: jax.Array) -> jax.Array:
+    """(n_substeps, ncontrol): ctrl held over the substeps, then each substep's mocap input."""
+    n_substeps = mocap_path.shape[0]
+    ctrl = jnp.broadcast_to(ctrl, (n_substeps, ctrl.shape[-1]))
+    return jnp.concatenate([ctrl, mocap_path.reshape(n_substeps, -1)], axis=-1)
 
 
 def make_backend(model: mujoco.MjModel, physics: str, n_threads: int = 0) -> PhysicsBackend:

@@ -5,12 +5,14 @@ from __future__ import annotations
 import dataclasses
 
 from mjx_skills.config import EnvConfig
+from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.baxter import BaxterEnv
+from mjx_skills.envs.fetch_tasks import FETCH_TASKS, FetchTask
 from mjx_skills.envs.skills import Grasp, Transfer, Transit
 from mjx_skills.envs.tasks import ContainerWall, PickMove, PutInContainer, PutOn, TakeOut
 from mjx_skills.envs.two_objects import PickMoveTwo, TwoInContainer
 
-ENVS: dict[str, type[BaxterEnv]] = {
+BAXTER: dict[str, type[BaxterEnv]] = {
     "transit": Transit,
     "grasp": Grasp,
     "transfer": Transfer,
@@ -22,6 +24,10 @@ ENVS: dict[str, type[BaxterEnv]] = {
     "pick_move_two": PickMoveTwo,
     "two_in_container": TwoInContainer,
 }
+"""The Baxter skills and tasks: what the skill library, its methods and the gym adapter serve."""
+FETCH: dict[str, type[FetchTask]] = dict(FETCH_TASKS)
+"""gymnasium-robotics' Fetch tasks (envs/fetch_tasks.py): flat methods (ddpg_her) only."""
+ENVS: dict[str, type] = {**BAXTER, **FETCH}
 SKILLS = ("transit", "grasp", "transfer")
 TASKS = ("pick_move", "put_in_container", "put_on", "take_out", "container_wall",
          "pick_move_two", "two_in_container")  # fmt: skip
@@ -32,7 +38,7 @@ def check_name(name: str) -> None:
         raise ValueError(f"unknown task {name!r}; valid: {', '.join(ENVS)}")
 
 
-def make(name: str, config: EnvConfig | None = None, **overrides) -> BaxterEnv:
+def make(name: str, config: EnvConfig | None = None, **overrides) -> GoalEnv:
     """Build env `name` from `config` (default EnvConfig) with field overrides."""
     check_name(name)
     config = config or EnvConfig()

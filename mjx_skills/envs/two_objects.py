@@ -42,8 +42,9 @@ def object_views(env, obs: jax.Array) -> jax.Array:
 
 def view_indices(env) -> tuple[tuple[int, ...], ...]:
     """Per cube k of `env`'s scene, the observation's indices of its view, static (a
-    `nets.Views`): obs[..., view_indices(env)[k]] is `object_views(env, obs)[..., k, :]`."""
-    if env.n_objects == 1:
+    `nets.Views`): obs[..., view_indices(env)[k]] is `object_views(env, obs)[..., k, :]`.
+    A scene without an object (FetchReach) has one view too: the whole observation."""
+    if env.n_objects <= 1:
         return (tuple(range(env.obs_dim)),)
     return tuple(range(ONE)), tuple(int(i) for i in _VIEW_2)
 

@@ -13,7 +13,7 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any
 
-from mjx_skills.config import DDPGConfig, PASConfig, SearchConfig
+from mjx_skills.config import DDPGConfig, EnvConfig, PASConfig, SearchConfig
 from mjx_skills.core.learner import Learner
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.methods.ddpg_her_sl import make_ddpg_her_sl
@@ -99,10 +99,22 @@ def check_task(
     skills act on any cube through the scene's projection onto (gripper, that cube)) except
     PAS / MPAS with the thesis's joint critic, which runs the one-cube tasks only
     (`options`: the method's option groups). Also refused: DDPG+HER+SL+BC with the scripted
-    explorer, which drives no library skill, so that nothing would be cloned."""
-    from mjx_skills.envs.registry import ENVS
+    explorer, which drives no library skill, so that nothing would be cloned. A Fetch task
+    runs the methods without a skill library only, with an env config it can honour."""
+    from mjx_skills.envs.registry import BAXTER, ENVS, FETCH
 
-    get(method)
+    spec = get(method)
+    if task in FETCH:
+        if spec.library_group is not None:
+            flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)
+            raise ValueError(
+                f"the skill library is built for the Baxter robot; {task} is a Fetch task "
+                f"(gymnasium-robotics'), which {method} cannot run: train it with {flat}"
+            )
+        FETCH[task].check_config(env or EnvConfig())
+        return
+    if task not in BAXTER:
+        raise ValueError(f"unknown task {task!r}; valid: {', '.join(ENVS)}")
     cubes = ENVS[task].n_objects
     options = options or {}
     pas = options.get("pas")
@@ -110,8 +122,6 @@ def check_task(
         raise ValueError(f"--pas.critic joint (the thesis's critic) runs on one-cube tasks; "
                          f"{task} has {cubes} cubes: use --pas.critic per_skill")  # fmt: skip
     if cubes == 1:
-        from mjx_skills.config import EnvConfig
-
         given = {**options, "env": env or EnvConfig()}
         defaults = {**get(method).options, "env": EnvConfig()}
         for group, fields in SEVERAL_CUBES.items():

@@ -17,9 +17,9 @@ from mjx_skills.envs.baxter import XML_DIR
 def scene_files() -> list[Path]:
     """The MJCF files of the one-cube scenes (the skills' and the thesis's tasks') and the
     files they include: the physics the library was built for and is used in."""
-    from mjx_skills.envs.registry import ENVS
+    from mjx_skills.envs.registry import BAXTER
 
-    todo, seen = {cls.scene for cls in ENVS.values() if cls.n_objects == 1}, set()
+    todo, seen = {cls.scene for cls in BAXTER.values() if cls.n_objects == 1}, set()
     while todo:
         name = todo.pop()
         seen.add(name)
