@@ -348,3 +348,23 @@ def test_a_checkpoint_without_a_recorded_digest_restores_with_a_warning(tmp_path
     ckpt.close()
     assert epoch == 1 and np.array_equal(restored["w"], tree["w"])
     assert "no recorded digest" in caplog.text
+
+
+def test_a_checkpoint_missing_its_arrays_falls_back_and_keeps_the_good_ones(tmp_path):
+    """One damaged step must not make the manager refuse, and set aside, every good one."""
+    import shutil
+
+    import jax.numpy as jnp
+
+    from mjx_skills.training.checkpoint import Checkpoints
+
+    tree = {"a": jnp.arange(4.0), "b": jnp.ones(3)}
+    checkpoints = Checkpoints(tmp_path / "checkpoints")
+    for epoch in (1, 2, 3):
+        checkpoints.save(epoch, {"a": tree["a"] + epoch, "b": tree["b"]})
+    checkpoints.close()
+    shutil.rmtree(tmp_path / "checkpoints" / "3" / "default")
+    epoch, restored = Checkpoints(tmp_path / "checkpoints").restore(tree)
+    assert epoch == 2 and float(restored["a"][0]) == 2.0
+    names = {p.name for p in (tmp_path / "checkpoints").iterdir()}
+    assert {"1", "2"} <= names and any(n.startswith("3.corrupt-") for n in names)

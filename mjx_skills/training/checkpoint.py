@@ -33,8 +33,8 @@ class Checkpoints:
         # Refused before orbax touches it: it would save nothing readable there, and set a
         # good checkpoint aside as corrupt when reading one (`core.paths`).
         self.directory = check_writable_path(directory, "the checkpoint directory")
-        options = ocp.CheckpointManagerOptions(max_to_keep=max_to_keep, create=True)
-        self.manager = ocp.CheckpointManager(self.directory, options=options)
+        self._options = ocp.CheckpointManagerOptions(max_to_keep=max_to_keep, create=True)
+        self.manager = ocp.CheckpointManager(self.directory, options=self._options)
 
     def save(self, epoch: int, carry: Any) -> None:
         """Write `carry` as the checkpoint of `epoch`, and its digest. Done with `carry` when
@@ -113,7 +113,10 @@ class Checkpoints:
         path = self.directory / str(epoch)
         if path.exists():
             path.rename(path.with_name(f"{epoch}.corrupt-{int(time.time())}"))
-        self.manager.reload()
+        # A fresh manager: one that failed on a damaged step can refuse every other step
+        # ("Must provide `args` of type `Composite`"), and good ones would be set aside.
+        self.manager.close()
+        self.manager = ocp.CheckpointManager(self.directory, options=self._options)
 
     def close(self) -> None:
         self.manager.close()
