@@ -368,3 +368,18 @@ def test_a_checkpoint_missing_its_arrays_falls_back_and_keeps_the_good_ones(tmp_
     assert epoch == 2 and float(restored["a"][0]) == 2.0
     names = {p.name for p in (tmp_path / "checkpoints").iterdir()}
     assert {"1", "2"} <= names and any(n.startswith("3.corrupt-") for n in names)
+
+
+def test_a_checkpoint_newer_than_the_whole_log_is_not_resumed_from(tmp_path, tiny_train):
+    """A crash cut epoch 3's log line after its checkpoint was saved: the resume starts from
+    epoch 2's checkpoint, so epoch 3 is trained again and logged, not lost."""
+    from mjx_skills.config import TrainConfig
+    from mjx_skills.training.metrics_log import read_metrics
+    from mjx_skills.training.runner import RunArgs, train_run
+
+    args = RunArgs(train=TrainConfig(**tiny_train, epochs=3, checkpoint_every=1, out=str(tmp_path)))
+    run_dir = train_run(args)
+    path = run_dir / "metrics.jsonl"
+    path.write_bytes(path.read_bytes()[:-20])  # epoch 3's line cut short
+    train_run(RunArgs(resume=str(run_dir), extend_to=4))
+    assert [r["epoch"] for r in read_metrics(run_dir)] == [1, 2, 3, 4]

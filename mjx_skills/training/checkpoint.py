@@ -65,8 +65,13 @@ class Checkpoints:
     def latest_epoch(self) -> int | None:
         return self.manager.latest_step()
 
-    def restore(self, like: Any) -> tuple[int, Any]:
-        """Newest restorable checkpoint -> (epoch, carry shaped like `like`).
+    def epochs(self) -> list[int]:
+        """The epochs that have a checkpoint, oldest first."""
+        return sorted(self.manager.all_steps())
+
+    def restore(self, like: Any, at_most: int | None = None) -> tuple[int, Any]:
+        """Newest restorable checkpoint (of an epoch <= `at_most`, if given: newer ones are
+        left as they are) -> (epoch, carry shaped like `like`).
 
         An unreadable checkpoint, or one whose contents differ from the digest recorded at
         its save, is reported, set aside and skipped for the one before it; one without a
@@ -76,6 +81,8 @@ class Checkpoints:
         abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, like)
         errors, digests = [], self._digests()
         for epoch in sorted(self.manager.all_steps(), reverse=True):
+            if at_most is not None and epoch > at_most:
+                continue
             try:
                 saved = self.manager.restore(epoch, args=ocp.args.StandardRestore())
             except Exception as err:  # noqa: BLE001 - any unreadable file means a bad checkpoint
@@ -107,12 +114,18 @@ class Checkpoints:
             "no restorable checkpoint" + (": " + "; ".join(errors) if errors else "")
         )
 
-    def _set_aside(self, epoch: int) -> None:
-        """Rename a bad checkpoint to <epoch>.corrupt (kept for inspection, out of the way of
-        the epoch's next save)."""
+    def set_aside_after(self, epoch: int) -> None:
+        """Rename the checkpoints of epochs after `epoch` to <epoch>.unlogged-<time>: kept, out
+        of the way of those epochs' saves when a resume trains them again."""
+        for later in [e for e in self.epochs() if e > epoch]:
+            self._set_aside(later, "unlogged")
+
+    def _set_aside(self, epoch: int, why: str = "corrupt") -> None:
+        """Rename a bad checkpoint to <epoch>.<why>-<time> (kept for inspection, out of the
+        way of the epoch's next save)."""
         path = self.directory / str(epoch)
         if path.exists():
-            path.rename(path.with_name(f"{epoch}.corrupt-{int(time.time())}"))
+            path.rename(path.with_name(f"{epoch}.{why}-{int(time.time())}"))
         # A fresh manager: one that failed on a damaged step can refuse every other step
         # ("Must provide `args` of type `Composite`"), and good ones would be set aside.
         self.manager.close()

@@ -162,9 +162,13 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     checkpoints = Checkpoints(run_dir / "checkpoints")
     start = 0
     if args.resume:
-        if checkpoints.latest_epoch() is not None:
-            start, carry = checkpoints.restore(carry)
+        # Resume from a checkpoint whose epoch the log holds whole: a newer one (its log
+        # line cut by a crash) would leave that epoch's row missing for good.
+        logged = _logged_through(run_dir, cfg.seeds)
+        if any(e <= logged for e in checkpoints.epochs()):
+            start, carry = checkpoints.restore(carry, at_most=logged)
             carry = committed(carry)
+        checkpoints.set_aside_after(start)  # epochs trained again: their saves come anew
         _say_where_it_resumes(run_dir, start, cfg.epochs)
     if extended:
         save_config(run_dir, args)
@@ -211,6 +215,19 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
         writer.close()
         checkpoints.close()
     return run_dir, carry
+
+
+def _logged_through(run_dir: Path, seeds: int) -> int:
+    """The last epoch E such that metrics.jsonl holds every seed's row of epochs 1..E."""
+    path = run_dir / "metrics.jsonl"
+    rows = read_metrics(run_dir) if path.exists() else []
+    seen: dict[int, set] = {}
+    for row in rows:
+        seen.setdefault(row["epoch"], set()).add(row["seed"])
+    epoch = 0
+    while len(seen.get(epoch + 1, ())) == seeds:
+        epoch += 1
+    return epoch
 
 
 def _say_where_it_resumes(run_dir: Path, start: int, epochs: int) -> None:
