@@ -36,6 +36,8 @@ from mjx_skills.core.precision import use_float32
 from mjx_skills.envs.registry import SKILLS
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.skills import fit, library
+from mjx_skills.training.interrupt import INTERRUPTED
+from mjx_skills.training.metrics_log import logged_epochs
 from mjx_skills.training.runner import RunArgs, train_and_keep
 
 TABLE = Path("experiments") / "results" / "table_5_1.csv"
@@ -52,7 +54,7 @@ class SkillsArgs:
     """Only write Table 5.1 (experiments/results/table_5_1.csv) from the library at --out."""
     progress: bool = True
     """Draw progress bars."""
-    work: str = ""
+    work: str | None = None
     """Directory of the skills' training runs (default: .OUT.work beside the library).
     Libraries built with the same one share their trained skills, e.g. the thesis preset's
     `--anchor start` library beside the default one."""
@@ -78,6 +80,8 @@ def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
         resume=str(previous) if previous else None,
     )  # fmt: skip
     run_dir, carry = train_and_keep(args)
+    if logged_epochs(run_dir) < args.train.epochs:  # Ctrl-C or SIGTERM: it saved and said so
+        raise KeyboardInterrupt
     return jax.tree.map(lambda x: x[0], carry.agent), run_dir
 
 
@@ -301,11 +305,20 @@ def main(argv: list[str] | None = None) -> None:
         if args.table:
             print(f"wrote {write_table(Path(args.out))}")
             return
-        out = build(args, work=Path(args.work).resolve() if args.work else None)
+        out = build(
+            args, work=None if args.work is None else check_writable_path(args.work, "--work")
+        )
         print(json.dumps(library.read_manifest(out)["models"], indent=1))
         print(f"library written to {out}")
     except (ValueError, FileExistsError, FileNotFoundError) as err:
         raise SystemExit(f"error: {err}") from None
+    except KeyboardInterrupt:  # no library is written from a half-trained skill
+        print(
+            "interrupted: no library written; run the same command again to resume the "
+            "skills' training where it stopped",
+            file=sys.stderr,
+        )
+        raise SystemExit(INTERRUPTED) from None
 
 
 if __name__ == "__main__":

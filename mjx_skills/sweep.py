@@ -43,9 +43,10 @@ from tqdm.auto import tqdm
 
 from mjx_skills.cli_args import positive_int
 from mjx_skills.core.files import read_json, write_text_atomic
-from mjx_skills.core.paths import check_writable_path
+from mjx_skills.core.paths import check_writable_path, directory
 from mjx_skills.sweeps.experiments import Cell, Experiment, adhoc, load_experiment, names
 from mjx_skills.sweeps.ray_cells import run_cells_ray
+from mjx_skills.training.interrupt import INTERRUPTED
 
 RESULTS = Path("experiments") / "results"
 STORE = RESULTS / "cells"
@@ -278,8 +279,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument(
         "--epochs", type=positive_int, help="epochs per cell (overrides the experiment's)"
     )
-    p.add_argument("--sweep-dir", type=Path, help="where cells run (default runs/sweeps/NAME)")
-    p.add_argument("--results", type=Path, default=RESULTS, help="where NAME.csv goes")
+    p.add_argument("--sweep-dir", type=directory, help="where cells run (default runs/sweeps/NAME)")
+    p.add_argument("--results", type=directory, default=RESULTS, help="where NAME.csv goes")
     p.add_argument("--overwrite", action="store_true", help="replace existing NAME.csv/.jsonl")
     p.add_argument("--ray", metavar="ADDRESS", help="run cells as Ray tasks: 'local' or HOST:PORT")
     p.add_argument("--ray-address", dest="ray", help=argparse.SUPPRESS)
@@ -318,7 +319,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     sweep_dir = args.sweep_dir or Path("runs") / "sweeps" / exp.name
     try:
-        check_writable_path(sweep_dir, "--sweep-dir")
+        sweep_dir = check_writable_path(sweep_dir, "--sweep-dir")
     except ValueError as err:
         raise SystemExit(f"error: {err}") from None
     try:
@@ -328,7 +329,7 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(f"error: {err}") from None
     except KeyboardInterrupt:  # the running cells finished and saved their epochs
         print("interrupted: run the same command again to resume", file=sys.stderr)
-        raise SystemExit(130) from None
+        raise SystemExit(INTERRUPTED) from None
     print(f"{len(exp.cells())} cells done; results: {', '.join(map(str, paths))}")
 
 

@@ -20,7 +20,8 @@ from mjx_skills import methods
 from mjx_skills.config import EnvConfig, TrainConfig
 from mjx_skills.core import compile_cache
 from mjx_skills.core.precision import use_float32
-from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.interrupt import INTERRUPTED
+from mjx_skills.training.metrics_log import logged_epochs
 from mjx_skills.training.runner import RunArgs, load_config, summary, train_run
 
 DEFAULT_METHOD = "ddpg_her"
@@ -93,10 +94,6 @@ def parse(argv: list[str]) -> RunArgs:
     return RunArgs(train=parsed.train, method=chosen, env=parsed.env, options=options)
 
 
-INTERRUPTED = 130
-"""Exit status of a run stopped by Ctrl-C or SIGTERM before its last epoch (128 + SIGINT)."""
-
-
 def main(argv: list[str] | None = None) -> None:
     compile_cache.enable()
     use_float32()
@@ -115,11 +112,6 @@ def main(argv: list[str] | None = None) -> None:
     print(summary(run_dir))
     if logged_epochs(run_dir) < load_config(run_dir).train.epochs:
         raise SystemExit(INTERRUPTED)  # stopped by a signal: it said where it saved
-
-
-def logged_epochs(run_dir) -> int:
-    """The last epoch a run logged (0: none)."""
-    return max((row["epoch"] for row in read_metrics(run_dir)), default=0)
 
 
 if __name__ == "__main__":

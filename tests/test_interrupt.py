@@ -1,12 +1,14 @@
 """Ctrl-C (a real SIGINT) mid-epoch never loses a finished epoch, and a resume says where
 it resumes from."""
 
+import json
 import os
 import signal
 import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 
 from mjx_skills.training.interrupt import deferred_stop
@@ -114,3 +116,49 @@ def test_a_sweep_stops_at_the_cell_a_signal_stopped(tmp_path, monkeypatch):
             cells, [tmp_path / c.name for c in cells], 1, False, store=tmp_path / "store"
         )
     assert started == [cells[0].name]
+
+
+def test_a_second_signal_while_a_checkpoint_is_written_waits_for_it(tmp_path):
+    """The checkpoint and its digest are whole before the second signal stops the run."""
+    from mjx_skills.training.checkpoint import Checkpoints
+
+    tree = {"a": np.arange(6.0)}
+    checkpoints = Checkpoints(tmp_path / "checkpoints")
+    with pytest.raises(KeyboardInterrupt), deferred_stop() as stop:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+        with stop.shielded():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.01)  # delivered here: held, not raised
+            checkpoints.save(3, tree)
+    checkpoints.close()
+    epoch, restored = Checkpoints(tmp_path / "checkpoints").restore(tree)
+    assert epoch == 3
+    np.testing.assert_array_equal(restored["a"], tree["a"])
+    assert "3" in json.loads((tmp_path / "checkpoints" / "digests.json").read_text())
+
+
+def test_a_signal_while_building_a_library_stops_the_build_with_no_library(
+    tmp_path, monkeypatch, capsys
+):
+    """A skill's training stopped by Ctrl-C (saved, unfinished) ends build_library with exit
+    130: the next skills are not trained and no library is written from a half-trained one."""
+    from mjx_skills import build_library
+
+    trained = []
+
+    def stopped_after_one_epoch(args):
+        trained.append(args.train.task)
+        run_dir = tmp_path / "work" / "run"
+        run_dir.mkdir(parents=True)
+        row = {"epoch": 1, "seed": 0, "eval_success": 0.0}
+        (run_dir / "metrics.jsonl").write_text(json.dumps(row) + "\n")
+        return run_dir, None
+
+    monkeypatch.setattr(build_library, "train_and_keep", stopped_after_one_epoch)
+    out = tmp_path / "lib"
+    with pytest.raises(SystemExit) as stopped:
+        build_library.main(["--out", str(out), "--work", str(tmp_path / "work"), "--no-progress"])
+    assert stopped.value.code == 130
+    assert trained == ["transit"] and not out.exists()
+    assert "no library written" in capsys.readouterr().err

@@ -81,3 +81,33 @@ def test_a_good_run_copied_under_such_a_path_is_refused_never_set_aside(tmp_path
     with pytest.raises(ValueError, match="checkpoint directory"):
         Checkpoints(copy)
     assert sorted(p.name for p in copy.iterdir()) == before
+
+
+@pytest.mark.parametrize("empty", ["", " "])
+def test_an_empty_path_is_refused_by_every_command(tmp_path, monkeypatch, empty):
+    """An empty --out, --resume, --work or --sweep-dir is refused, never read as 'not given'
+    (the default) nor as the current directory."""
+    from mjx_skills import build_library, sweep
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError, match="--out: an empty path"):
+        train_run(RunArgs(train=TrainConfig(task="transit", epochs=1, out=empty)))
+    with pytest.raises(ValueError, match="--resume: an empty path"):
+        train_run(RunArgs(resume=empty))
+    with pytest.raises(SystemExit, match="--work: an empty path"):
+        build_library.main(["--out", str(tmp_path / "lib"), "--work", empty])
+    with pytest.raises(SystemExit):
+        sweep.main(["--tasks", "transit", "--methods", "ddpg_her", "--sweep-dir", empty])
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_tilde_run_is_written_whole_under_the_home_directory(tmp_path, monkeypatch, tiny_train):
+    """`--out ~/x` puts config, metrics and checkpoints in one run under $HOME (orbax
+    expands `~` itself; the run's own files once went under a directory named `~`)."""
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    run_dir = train_run(RunArgs(train=TrainConfig(**tiny_train, epochs=1, out="~/runs")))
+    assert run_dir.is_relative_to(tmp_path / "home" / "runs")
+    names = {p.name for p in run_dir.iterdir()}
+    assert {"config.json", "metrics.jsonl", "checkpoints"} <= names
+    assert not (tmp_path / "~").exists()

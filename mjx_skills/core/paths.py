@@ -15,7 +15,11 @@ REFUSED = "[]\\"
 
 
 def check_writable_path(path: str | Path, what: str = "--out") -> Path:
-    """`path` made absolute, or ValueError naming `what` and the characters it may not hold."""
+    """`path` made absolute (`~` expanded), or ValueError naming `what`: an empty path (which
+    would mean the current directory, never what was meant) or the characters it may not
+    hold. Callers write to the returned path, so a `~` never becomes a directory named `~`."""
+    if not str(path).strip():
+        raise ValueError(f"{what}: an empty path; give a directory")
     full = Path(path).expanduser().resolve()
     bad = sorted({c for c in str(full) if c in REFUSED})
     if bad:
@@ -25,3 +29,11 @@ def check_writable_path(path: str | Path, what: str = "--out") -> Path:
             "choose a directory without them"
         )
     return full
+
+
+def directory(text: str) -> Path:
+    """An argparse `type` for a directory flag: `~` expanded; an empty one is refused
+    (ValueError, which argparse reports as an invalid value of the flag)."""
+    if not text.strip():
+        raise ValueError("an empty path")
+    return Path(text).expanduser()

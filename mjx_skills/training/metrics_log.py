@@ -123,6 +123,11 @@ def read_metrics(run_dir: Path) -> list[dict]:
     return read_jsonl(Path(run_dir) / "metrics.jsonl")
 
 
+def logged_epochs(run_dir: Path) -> int:
+    """The last epoch a run logged (0: none)."""
+    return max((row["epoch"] for row in read_metrics(run_dir)), default=0)
+
+
 def wall_seconds(rows: list[dict]) -> float:
     """A run's training wall time (s) from its metrics rows. `wall_s` counts from the start
     of the process that wrote the row, so a resumed run's clock starts again: the time is

@@ -137,15 +137,16 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     once. Refused before any write: x64 JAX (`precision`), a path orbax cannot write
     (`paths`), unknown or unread options, a task the method cannot run."""
     require_float32()
-    run_dir = Path(args.resume) if args.resume else None
+    run_dir = None if args.resume is None else check_writable_path(args.resume, "--resume")
     extended = False  # a resumed run given a longer budget: saved once its checkpoint loaded
     if run_dir is not None:
-        check_writable_path(run_dir, "--resume")
         extend_to, args = args.extend_to, load_config(run_dir)
         if extend_to is not None:
             extended, args = extend_to != args.train.epochs, _extended(args, extend_to)
     else:
-        check_writable_path(args.train.out, "--out")
+        out = check_writable_path(args.train.out, "--out")
+        if str(args.train.out).startswith("~"):  # written where `~` points, as orbax would
+            args = dataclasses.replace(args, train=dataclasses.replace(args.train, out=str(out)))
     check_name(args.train.task)
     options = args.full_options()  # unknown methods and option groups fail before any write
     methods.check_read(args.method, args.train, options)  # so do options it would ignore
@@ -161,7 +162,7 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     env, _, epoch_fn, carry = build(args.method, cfg, args.env, options, aux)
     checkpoints = Checkpoints(run_dir / "checkpoints")
     start = 0
-    if args.resume:
+    if args.resume is not None:
         # Resume from a checkpoint whose epoch the log holds whole: a newer one (its log
         # line cut by a crash) would leave that epoch's row missing for good.
         logged = _logged_through(run_dir, cfg.seeds)
@@ -194,7 +195,8 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
                 bar.update(1)
                 last = epoch == cfg.epochs
                 if last or epoch % cfg.checkpoint_every == 0 or stop or epoch == stop_after:
-                    checkpoints.save(epoch, carry)
+                    with stop.shielded():  # a second signal waits for the whole checkpoint
+                        checkpoints.save(epoch, carry)
                 if not last and (stop or epoch == stop_after):
                     if stop:
                         print(
