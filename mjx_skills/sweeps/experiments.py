@@ -111,6 +111,7 @@ class Experiment:
         from mjx_skills.skills.library import library_skills
 
         self._check_types()
+        self._check_lists()
         if self.kind not in ("train", "library"):
             raise ValueError(
                 f"experiment {self.name}: unknown kind {self.kind!r}; valid: train, library"
@@ -134,7 +135,9 @@ class Experiment:
         self._check_fields("[env]", self.env, EnvConfig)
         if self.label and not self.label.replace("_", "").isalnum():
             raise ValueError(f"experiment {self.name}: label {self.label!r}: letters, digits, _")
-        self._check_fields("[train]", self.train, TrainConfig, {"task", "epochs", "seeds"})
+        self._check_fields(
+            "[train]", self.train, TrainConfig, {"task", "epochs", "seeds", "out", "progress"}
+        )
         for method, groups in self.options.items():
             if method not in self.methods:
                 raise ValueError(
@@ -168,20 +171,56 @@ class Experiment:
             value, hint = getattr(self, field.name), hints[field.name]
             where = f"experiment {self.name}: {field.name}"
             if typing.get_origin(hint) is dict:
-                if not isinstance(value, dict) or not all(
-                    isinstance(v, dict) for v in value.values() if field.name == "options"
-                ):
+                if not isinstance(value, dict):
                     raise ValueError(f"{where}: must be a table, got {value!r}")
+                if field.name == "options":
+                    self._check_option_tables(value)
                 continue
             try:
                 object.__setattr__(self, field.name, checked_value(field.name, value, hint))
             except ValueError as err:
                 raise ValueError(f"experiment {self.name}: {err}") from None
 
+    def _check_option_tables(self, options: dict) -> None:
+        """`[options.METHOD.GROUP]` are tables of tables: a value elsewhere names its key."""
+        for method, groups in options.items():
+            if not isinstance(groups, dict):
+                raise ValueError(
+                    f"experiment {self.name}: options.{method} must be a table of option "
+                    f"groups ([options.{method}.GROUP]), got {groups!r}"
+                )
+            for group, fields in groups.items():
+                if not isinstance(fields, dict):
+                    raise ValueError(
+                        f"experiment {self.name}: options.{method}.{group} must be a table of "
+                        f"fields ([options.{method}.{group}] name = value), got {fields!r}"
+                    )
+
+    def _check_lists(self) -> None:
+        """tasks, methods and libraries name each entry once, and are non-empty in a training
+        experiment (a repeated
+        one would run two workers into one cell directory)."""
+        for key in ("tasks", "methods", "libraries"):
+            values = getattr(self, key)
+            if not values and self.kind == "train":
+                raise ValueError(f"experiment {self.name}: {key} is empty; give at least one")
+            repeated = sorted({v for v in values if values.count(v) > 1})
+            if repeated:
+                raise ValueError(
+                    f"experiment {self.name}: {key} lists {repeated} more than once; each "
+                    "cell runs once"
+                )
+
     def _check_fields(self, where: str, fields: dict, cls: type, fixed: set = frozenset()) -> None:
         """Every key of a table names a field of `cls` (not one of `fixed`, set elsewhere),
         and `cls` takes the values: else ValueError naming the table and the valid fields."""
         valid = {f.name for f in dataclasses.fields(cls)} - set(fixed)
+        if set(fields) & set(fixed):
+            raise ValueError(
+                f"experiment {self.name}: {where} {sorted(set(fields) & set(fixed))}: set by "
+                "the experiment's own keys or by the sweep (--sweep-dir, --no-progress), not "
+                "in this table"
+            )
         unknown = sorted(set(fields) - valid)
         if unknown:
             raise ValueError(
