@@ -307,6 +307,18 @@ def test_a_cell_stored_before_checksums_is_used_with_a_warning(stored_cell, capl
     assert "used unverified" in caplog.text
 
 
+@pytest.mark.parametrize("cut", [3, 1])
+def test_a_cut_line_in_a_cell_stored_before_checksums_is_refused_not_trimmed(stored_cell, cut):
+    """A stored cell is copied whole: its metrics cut (no newline, or half a line) is
+    damage, read as such even where no checksum can show it, never as fewer rows."""
+    _, where = stored_cell
+    (where / cells.CHECKSUMS).unlink()
+    path = where / "metrics.jsonl"
+    path.write_bytes(path.read_bytes()[:-cut])
+    with pytest.raises(ValueError, match=rf"stored cell {where} is damaged: .*\(line 1\) is cut"):
+        cells.read_stored_metrics(where)
+
+
 def test_every_committed_cell_matches_its_checksums():
     committed = sorted(d for d in cells.STORE.iterdir() if d.is_dir())
     assert committed

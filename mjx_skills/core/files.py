@@ -75,17 +75,19 @@ def read_json(path: Path | str) -> Any:
         ) from None
 
 
-def read_jsonl(path: Path | str) -> list[Any]:
+def read_jsonl(path: Path | str, whole: bool = False) -> list[Any]:
     """One JSON value per line of `path` (blank lines skipped).
 
     The crash case is tolerated: a last line without its newline, or one that does not
     parse, is a half-written append; it is dropped with a warning naming the file. A line
-    that does not parse anywhere else raises ValueError naming the file and line number.
-    Raises FileNotFoundError if the file is missing."""
-    return [value for _, value in read_jsonl_lines(path)]
+    that does not parse anywhere else raises ValueError naming the file and line number;
+    so does a cut last line with `whole` (a file written at once, never appended to, such
+    as a stored cell's, is damaged if it is cut). Raises FileNotFoundError if the file is
+    missing."""
+    return [value for _, value in read_jsonl_lines(path, whole)]
 
 
-def read_jsonl_lines(path: Path | str) -> list[tuple[str, Any]]:
+def read_jsonl_lines(path: Path | str, whole: bool = False) -> list[tuple[str, Any]]:
     """`read_jsonl` as (the line's text without its newline, its value) pairs: what a
     writer keeps verbatim when it rewrites the file."""
     path = Path(path)
@@ -100,13 +102,15 @@ def read_jsonl_lines(path: Path | str) -> list[tuple[str, Any]]:
             text = piece.decode("utf-8")
             out.append((text, json.loads(text)))
         except (UnicodeDecodeError, json.JSONDecodeError) as err:
-            if i == len(numbered) - 1 and not tail.strip():
+            if i == len(numbered) - 1 and not tail.strip() and not whole:
                 _dropped(path, number, f"it does not parse: {err}")
                 break
             raise ValueError(
                 f"{path} is damaged at line {number} ({err}); only a half-written last line "
                 "is skipped, so restore the file or cut it before that line"
             ) from None
+    if tail.strip() and whole:
+        raise ValueError(f"{path} is damaged: its last line (line {len(pieces) + 1}) is cut")
     if tail.strip():
         _dropped(path, len(pieces) + 1, "it has no newline")
     return out

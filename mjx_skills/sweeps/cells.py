@@ -160,6 +160,9 @@ def save(cell, run_dir: Path, store: Path = STORE) -> Path:
     return where
 
 
+FIX = "restore it (git checkout) or delete the directory to train the cell again"
+
+
 def write_checksums(where: Path) -> Path:
     """Record the SHA-256 of a stored cell's `FILES` in its `CHECKSUMS` (atomically)."""
     sums = {name: sha256_file(where / name) for name in FILES}
@@ -175,7 +178,7 @@ def verify(where: Path, names: tuple[str, ...] = FILES) -> None:
         log.warning("stored cell %s %s: its files are used unverified", where, why)
         return
     sums = read_json(where / CHECKSUMS)
-    fix = "restore it (git checkout) or delete the directory to train the cell again"
+    fix = FIX
     for name in names:
         if not (where / name).exists():
             raise ValueError(f"the stored cell {where} is damaged: {name} is missing; {fix}")
@@ -190,4 +193,7 @@ def read_stored_metrics(where: Path) -> list[dict]:
     """A stored cell's metrics.jsonl rows, verified first (`verify`: ValueError naming the
     cell and file when damaged)."""
     verify(where, ("metrics.jsonl",))
-    return read_jsonl(where / "metrics.jsonl")
+    try:  # a stored cell is copied whole: a cut line is damage, even without checksums
+        return read_jsonl(where / "metrics.jsonl", whole=True)
+    except ValueError as err:
+        raise ValueError(f"the stored cell {where} is damaged: {err}; {FIX}") from None
