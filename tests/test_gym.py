@@ -336,3 +336,26 @@ def test_rendered_frames_are_the_frames_of_the_current_state():
     assert run.returncode == 0, run.stderr
     for worst, std in json.loads(run.stdout.splitlines()[-1]):
         assert worst == 0 and std > 10
+
+
+@pytest.mark.parametrize("shape", [(7,), (2, 4), (), (3,)])
+def test_an_action_of_another_shape_is_refused_naming_the_shape(shape):
+    env = BaxterGymEnv("transit")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"this env takes one action of shape \(4,\)"):
+        env.step(np.zeros(shape, np.float32))
+
+
+def test_x64_is_refused_at_construction_and_at_reset():
+    """The task logic runs in float32 as trained; under x64 it would run in float64."""
+    env = BaxterGymEnv("transit")
+    jax.config.update("jax_enable_x64", True)
+    try:
+        with pytest.raises(ValueError, match="float32"):
+            BaxterGymEnv("transit")
+        with pytest.raises(ValueError, match="float32"):
+            env.reset(seed=0)
+    finally:
+        jax.config.update("jax_enable_x64", False)
+    obs, _ = env.reset(seed=0)
+    assert obs["observation"].dtype == np.float32

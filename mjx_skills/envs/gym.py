@@ -25,6 +25,7 @@ import numpy as np
 from gymnasium import spaces
 
 from mjx_skills.config import EnvConfig
+from mjx_skills.core.precision import require_float32
 from mjx_skills.envs.baxter import smooth_path
 from mjx_skills.envs.registry import BAXTER, FETCH, make
 
@@ -86,6 +87,7 @@ class BaxterGymEnv(gymnasium.Env):
 
     def __init__(self, task: str = "pick_move", render_mode: str | None = None, **config):
         _check_not_forked()
+        require_float32()  # the JAX env's task logic as trained: float32, never float64
         if task in FETCH:
             raise ValueError(
                 f"{task}: the gym adapter hosts the Baxter envs only; gymnasium-robotics' own "
@@ -147,6 +149,7 @@ class BaxterGymEnv(gymnasium.Env):
         }, float(reward)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        require_float32()  # x64 switched on after the env was built
         super().reset(seed=seed)
         # options={"jax_key": key} starts from exactly what the JAX env's reset(key) does.
         if options and "jax_key" in options:
@@ -169,6 +172,11 @@ class BaxterGymEnv(gymnasium.Env):
 
     def step(self, action):
         action = np.asarray(action, np.float32)  # sanitised as the JAX env does, in _plan
+        if action.shape != self.action_space.shape:
+            raise ValueError(
+                f"action of shape {action.shape}; this env takes one action of shape "
+                f"{self.action_space.shape} (a batch is a vector env's)"
+            )
         grip = np.asarray(self.data.sensordata[self.task.sensor_slices["grip_pos"]], np.float32)
         ctrl, path = self._plan(grip, action)
         self.data.qacc_warmstart[:] = 0.0  # each step starts cold, as mujoco.rollout does
