@@ -259,7 +259,8 @@ class LibraryConfig:
     classifier_lr: float = 1e-3
     """Adam learning rate of the classifier (thesis: 1e-4)."""
     fit_batch: int = 256
-    """Samples per gradient step of the fits."""
+    """Samples per gradient step of the fits (at most the training split: a smaller split is
+    one batch)."""
     fit_epochs: int = 60
     """Most passes over the training split (early stopping after `patience`, best kept)."""
     patience: int = 8

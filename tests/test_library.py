@@ -69,6 +69,18 @@ def test_vmapped_fit_equals_fitting_each_skill_alone(dynamics_fit):
         chex.assert_trees_all_close(alone, one(stacked), rtol=1e-4, atol=1e-5)
 
 
+def test_a_split_smaller_than_one_batch_fits_as_one_batch():
+    """build_library --samples 100 with the default fit_batch 256 once failed in a reshape."""
+    o, g, y, _ = synthetic(jax.random.PRNGKey(4), N=100)
+    train, val = split(o, g, y, jnp.ones((2, OBS)), n_val=10)
+    keys = jax.random.split(jax.random.PRNGKey(5), 2)
+    params, _ = fit.init_models(keys, SMALL, OBS, GOAL)
+    config = dataclasses.replace(SMALL, fit_batch=256, fit_epochs=30)
+    loss = fit.dynamics_loss(OBS, SMALL.model_hidden)
+    _, history = fit.fit(params, train, val, loss, 3e-3, config, keys)
+    assert np.all(np.array(history[-1]["train"]) < np.array(history[0]["train"]))
+
+
 def test_classifier_fit_separates_a_known_boundary():
     o, g, _, label = synthetic(jax.random.PRNGKey(2))
     train, val = split(o, g, label, jnp.ones((2, OBS)))

@@ -135,15 +135,19 @@ def classifier_loss(hidden: tuple[int, ...]):
 
 def make_fit_epoch(loss: Callable, optimizer: optax.GradientTransformation, batch_size: int):
     """-> fit_epoch(params, opt_state, train, key) -> (params, opt_state, mean loss): one
-    shuffled pass over one skill's training split. Per skill; vmap it over the skill axis.
+    shuffled pass over one skill's training split, in batches of `batch_size` (the whole
+    split if it is smaller; the remainder of a pass is left out). Per skill; vmap it over the skill axis.
     `train` leaves are (N, ...) per sample, except `dims`, shared by all samples."""
 
     def fit_epoch(params, opt_state, train, key):
         n = train["w"].shape[0]
-        n_batches = max(1, n // batch_size)
-        order = jax.random.permutation(key, n)[: n_batches * batch_size]
-        batches = {k: (v if k == "dims" else v[order].reshape(n_batches, batch_size, *v.shape[1:]))
-                   for k, v in train.items()}  # fmt: skip
+        size = min(batch_size, n)  # a split smaller than one batch is one batch
+        n_batches = n // size
+        order = jax.random.permutation(key, n)[: n_batches * size]
+        batches = {
+            k: (v if k == "dims" else v[order].reshape(n_batches, size, *v.shape[1:]))
+            for k, v in train.items()
+        }
         shared = {k: v for k, v in batches.items() if k == "dims"}
         per_step = {k: v for k, v in batches.items() if k != "dims"}
 
