@@ -382,6 +382,33 @@ def test_a_checkpoint_missing_its_arrays_falls_back_and_keeps_the_good_ones(tmp_
     assert {"1", "2"} <= names and any(n.startswith("3.corrupt-") for n in names)
 
 
+def test_every_file_of_a_checkpoint_emptied_falls_back_with_a_short_message(tmp_path, caplog):
+    """A zero-byte file (a full disk, a cut copy) anywhere in the newest checkpoint: the one
+    before is restored, and the warning is a line, not tensorstore's 1 kB spec."""
+    import shutil
+
+    tree = {"w": np.arange(64, dtype=np.float32), "n": np.arange(3, dtype=np.int32)}
+    base = tmp_path / "base"
+    ckpt = Checkpoints(base / "checkpoints")
+    ckpt.save(1, tree)
+    ckpt.save(2, {"w": tree["w"] + 1, "n": tree["n"]})
+    ckpt.close()
+    files = [p.relative_to(base) for p in (base / "checkpoints" / "2").rglob("*") if p.is_file()]
+    assert len(files) >= 5
+    for i, rel in enumerate(files):
+        copy = tmp_path / str(i)
+        shutil.copytree(base, copy)
+        (copy / rel).write_bytes(b"")
+        caplog.clear()
+        with caplog.at_level(logging.WARNING):
+            epoch, restored = Checkpoints(copy / "checkpoints").restore(tree)
+        # a file the restore does not read (a second copy) leaves epoch 2 whole
+        expected = tree["w"] + (epoch == 2)
+        np.testing.assert_array_equal(restored["w"], expected, err_msg=str(rel))
+        assert all(len(r.getMessage()) < 500 for r in caplog.records), (rel, caplog.text)
+        assert "tensorstore_spec" not in caplog.text
+
+
 def test_a_checkpoint_newer_than_the_whole_log_is_not_resumed_from(tmp_path, tiny_train):
     """A crash cut epoch 3's log line after its checkpoint was saved: the resume starts from
     epoch 2's checkpoint, so epoch 3 is trained again and logged, not lost."""

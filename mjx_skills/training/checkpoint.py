@@ -86,10 +86,11 @@ class Checkpoints:
             try:
                 saved = self.manager.restore(epoch, args=ocp.args.StandardRestore())
             except Exception as err:  # noqa: BLE001 - any unreadable file means a bad checkpoint
+                why = _brief(err)
                 log.warning(
-                    "checkpoint at epoch %d is unreadable (%s); trying an older one", epoch, err
+                    "checkpoint at epoch %d is unreadable (%s); trying an older one", epoch, why
                 )
-                errors.append(f"epoch {epoch}: {err}")
+                errors.append(f"epoch {epoch}: {why}")
                 self._set_aside(epoch)
                 continue
             if _signature(saved) != _signature(abstract):
@@ -133,3 +134,14 @@ class Checkpoints:
 
     def close(self) -> None:
         self.manager.close()
+
+
+BRIEF = 300
+"""Most characters of a reading error that a message quotes."""
+
+
+def _brief(err: Exception) -> str:
+    """A reading error in one short line: tensorstore appends its whole spec (about 1 kB of
+    JSON) to every message, which says nothing about which file is damaged."""
+    text = " ".join(str(err).split("[tensorstore_spec=")[0].split()) or type(err).__name__
+    return text if len(text) <= BRIEF else text[: BRIEF - 3] + "..."
