@@ -218,6 +218,8 @@ class TrainConfig:
     def __post_init__(self) -> None:
         check_numbers(self)
         _check(bool(self.task), "task", "must name an env")
+        for name in ("seed", "seeds"):  # the field that alone passes the limit is named
+            _check(getattr(self, name) < SEED_LIMIT, name, "must be < 2**32 (32-bit keys)")
         _check(self.seed + self.seeds <= SEED_LIMIT, "seed", "seed + seeds over 2**32 (keys)")
         for name in ("epochs", "seeds", "envs", "cycles", "eval_episodes", "checkpoint_every",
                      "updates_per_cycle", "replay_capacity"):  # fmt: skip

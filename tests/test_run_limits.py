@@ -69,6 +69,8 @@ def test_seeds_past_32_bits_are_refused():
     for seed, seeds in ((SEED_LIMIT, 1), (SEED_LIMIT - 1, 3), (2**40, 1)):
         with pytest.raises(ValueError, match="'seed'"):
             TrainConfig(seed=seed, seeds=seeds)
+    with pytest.raises(ValueError, match="'seeds': must be < 2"):
+        TrainConfig(seed=0, seeds=10**12)  # the field at fault is named
     last = TrainConfig(seed=SEED_LIMIT - 3, seeds=3)
     assert len({tuple(np.asarray(k)) for k in seed_keys(last)}) == 3
     parser = run_parser("evaluate", None, episodes=1)
