@@ -260,10 +260,31 @@ def test_a_library_whose_arrays_changed_on_disk_is_refused(constructed, tmp_path
     assert "no digest" in caplog.text
 
 
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("anchor", "goal"), ("anchor", "start"), ("model_hidden", [8]), ("memory_size", 3)],
+)
+def test_a_manifest_whose_defining_fields_were_edited_is_refused(
+    constructed, tmp_path, field, value
+):
+    """The arrays' digest cannot see the manifest's own fields, which say how the arrays are
+    read (the anchor, the widths): its `definition` digest does."""
+    path = library.save(constructed, tmp_path / "lib", {"memory_size": 4})
+    raw = json.loads((path / "manifest.json").read_text())
+    edited = {**raw, "library": {**raw["library"]}}
+    where = edited if field == "memory_size" else edited["library"]
+    if where[field] == value:
+        return  # the value it was built with: nothing edited
+    where[field] = value
+    (path / "manifest.json").write_text(json.dumps(edited))
+    with pytest.raises(ValueError, match=rf"{path}: manifest.json's .* \(edited since\)"):
+        library.load(path)
+
+
 def test_the_committed_libraries_carry_the_digest_of_their_arrays(caplog):
     for directory in sorted(library.DEFAULT_DIR.parent.glob("skill_library*")):
         if (directory / "manifest.json").exists():
-            assert "digest" in library.read_manifest(directory), directory
+            assert {"digest", "definition"} <= set(library.read_manifest(directory)), directory
             with caplog.at_level(logging.WARNING):
                 library.load(directory)  # verified: raises if its arrays differ
             assert "no digest" not in caplog.text, directory

@@ -36,7 +36,7 @@ from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.types import ObsLayout
 from mjx_skills.envs.baxter import LAYOUT, BaxterEnv
 from mjx_skills.envs.registry import SKILLS, make
-from mjx_skills.skills.provenance import provenance, stale_reasons
+from mjx_skills.skills.provenance import DEFINING, definition_sha256, provenance, stale_reasons
 from mjx_skills.skills.provenance import scene_files as scene_files  # re-exported
 from mjx_skills.skills.provenance import scenes_digest as scenes_digest  # re-exported
 
@@ -269,6 +269,7 @@ def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
             "ddpg": dataclasses.asdict(lib.ddpg_config),
             "library": dataclasses.asdict(lib.config), "complete": True}  # fmt: skip
     full["digest"] = tree_sha256(lib)
+    full["definition"] = definition_sha256(full)
     write_json_atomic(tmp / "manifest.json", full, indent=2)
     tmp.rename(directory)
     return directory
@@ -302,6 +303,7 @@ def load(directory: Path) -> tuple[SkillLibrary, dict[str, Any]]:
     """-> (library, manifest). Refuses a missing, half-written or incompatible library."""
     manifest = read_manifest(directory)
     check_writable_path(directory, "the library directory")  # orbax would misread it
+    check_definition(manifest, directory)  # before its fields shape what is restored
     config = from_dict(LibraryConfig, manifest["library"])
     ddpg_config = from_dict(DDPGConfig, manifest["ddpg"])
     like = empty_like(tuple(manifest["skills"]), ddpg_config, config, manifest["memory_size"])
@@ -313,6 +315,17 @@ def load(directory: Path) -> tuple[SkillLibrary, dict[str, Any]]:
         raise ValueError(f"{directory}: the library's arrays do not load ({err})") from None
     check_digest(lib, manifest, directory)
     return lib, manifest
+
+
+def check_definition(manifest: dict[str, Any], directory: Path) -> None:
+    """ValueError naming `directory` when the manifest's `DEFINING` fields were edited since
+    the build (its `definition` digest differs; none recorded: not checked)."""
+    if "definition" in manifest and definition_sha256(manifest) != manifest["definition"]:
+        raise ValueError(
+            f"{directory}: manifest.json's {', '.join(DEFINING)} differ from those the "
+            "library was built with (edited since); restore the file or build a library "
+            "with the options wanted"
+        )
 
 
 def check_digest(lib: SkillLibrary, manifest: dict[str, Any], directory: Path) -> None:

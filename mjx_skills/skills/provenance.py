@@ -5,6 +5,7 @@ the scenes it was built in, and why a library may not match this code (`stale_re
 from __future__ import annotations
 
 import hashlib
+import json
 import re
 import subprocess
 from pathlib import Path
@@ -77,3 +78,14 @@ def stale_reasons(manifest: dict[str, Any]) -> list[str]:
     elif manifest["scenes"] != scenes_digest():
         reasons.append("built in other scenes (xml/ has changed since)")
     return reasons
+
+
+DEFINING = ("skills", "ddpg", "library", "memory_size")
+"""The manifest's fields that say how the arrays are read and used (the anchor, the
+networks' widths...): covered by its `definition` digest."""
+
+
+def definition_sha256(manifest: dict[str, Any]) -> str:
+    """SHA-256 of the manifest's `DEFINING` fields as canonical JSON."""
+    defining = {k: manifest.get(k) for k in DEFINING}
+    return hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()
