@@ -39,9 +39,8 @@ def test_the_generated_benchmark_blocks_are_what_the_committed_results_give(bloc
 
     root = Path(__file__).resolve().parents[1]
     report = runpy.run_path(str(root / "benchmarks" / "speed_report.py"))
-    begin, end, make = {b[0].split(":")[0].removeprefix("<!-- "): b for b in report["BLOCKS"]}[
-        block
-    ]
+    blocks = {b[0].split(":")[0].removeprefix("<!-- "): b for b in report["BLOCKS"]}
+    begin, end, make = blocks[block]
     readme = (root / "docs" / "benchmarks.md").read_text()
     start = readme.index(begin)
     stop = readme.index(end) + len(end)
