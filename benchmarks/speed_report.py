@@ -262,10 +262,12 @@ def physics_fetch() -> list[str]:
             f"**Fetch** (`python benchmarks/physics.py --task {task} --batches {batches}`): "
             f"`{task}`, random actions, one env step = {first['substeps']} physics substeps; "
             f'"theirs" is {first["reference"]} (`envs/fetch_reference.py`), one env in a '
-            f"Python loop (a batch is one env after another), timed just before ours at each "
-            f'batch; "native in jit" as above. Env steps/s (physics steps/s):',
+            f'Python loop (a batch is one env after another); "native in jit" as above. The '
+            f"two are timed in turn {first['repeats']} times at each batch: env steps/s "
+            f"(physics steps/s) are medians of the timings, the ratio the median of the "
+            f"pairs' ratios (lowest-highest after it).",
             "",
-            "| batch | theirs | native in jit | ratio |",
+            "| batch | theirs | native in jit | ratio (range) |",
             "|---|---|---|---|",
         ]
         for batch, r in sorted(by.items()):
@@ -275,15 +277,16 @@ def physics_fetch() -> list[str]:
                 f"({r['reference_physics_steps_per_s']:,.0f}) | "
                 f"{r['native_jit_env_steps_per_s']:,.0f} "
                 f"({r['native_jit_physics_steps_per_s']:,.0f}) | "
-                f"{f'**{ratio}**' if batch == max(by) else ratio} |"
+                f"{f'**{ratio}**' if batch == max(by) else ratio} "
+                f"({r['ratio_min']:.2f}-{r['ratio_max']:.2f}) |"
             )
         loads = sorted(r["load_1min"] for r in by.values() if "load_1min" in r)
         if loads and loads[-1] > 0.5:
             out += [
                 "",
                 f"The machine was not idle (1-minute load average {loads[0]:.1f}-{loads[-1]:.1f} "
-                f"before the rows: other runs shared its {first['cores']} cores), so both rates "
-                "are lower bounds; the ratio compares two timings taken back to back.",
+                f"before each batch: other runs shared its {first['cores']} cores), so both rates "
+                "are lower bounds, and the ratio, of timings taken in turn, is the figure.",
             ]
     return out
 
