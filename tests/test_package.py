@@ -1,6 +1,7 @@
 import importlib.metadata
 
 import jax
+import pytest
 
 import mjx_skills
 from mjx_skills.core import compile_cache
@@ -28,18 +29,22 @@ def test_importing_the_package_has_no_side_effects():
     assert out.stdout.strip() == "None"
 
 
-def test_the_speed_section_is_what_the_committed_results_give():
-    """Every figure of docs/benchmarks.md's "Speed" section is computed from committed
-    benchmark results by benchmarks/speed_report.py (run it with --write after a benchmark)."""
+@pytest.mark.parametrize("block", ["speed", "physics"])
+def test_the_generated_benchmark_blocks_are_what_the_committed_results_give(block):
+    """Every figure of docs/benchmarks.md's "Speed" section and its "Physics" subsection
+    (the Fetch ratio included) is computed from committed benchmark results by
+    benchmarks/speed_report.py (run it with --write after a benchmark)."""
     import runpy
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
     report = runpy.run_path(str(root / "benchmarks" / "speed_report.py"))
+    blocks = {b[0].split(":")[0].removeprefix("<!-- "): b for b in report["BLOCKS"]}
+    begin, end, make = blocks[block]
     readme = (root / "docs" / "benchmarks.md").read_text()
-    start = readme.index(report["BEGIN"])
-    end = readme.index(report["END"]) + len(report["END"])
-    assert readme[start:end] == report["section"](), "run python benchmarks/speed_report.py --write"
+    start = readme.index(begin)
+    stop = readme.index(end) + len(end)
+    assert readme[start:stop] == make(), "run python benchmarks/speed_report.py --write"
 
 
 def _cited(text: str):
