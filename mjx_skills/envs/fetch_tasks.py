@@ -15,8 +15,8 @@ import jax.numpy as jnp
 
 from mjx_skills.config import EnvConfig
 from mjx_skills.core.types import State
-from mjx_skills.envs.baxter import BaxterEnv
 from mjx_skills.envs.fetch import FetchRobot
+from mjx_skills.envs.robot import advance, sanitize_action
 
 MJX_REFUSAL = (
     "MJX is not supported for the Fetch tasks yet: mujoco.mjx.put_model refuses "
@@ -58,6 +58,8 @@ class FetchTask:
     gymnasium-robotics' arguments of that task. `EnvConfig` fields it reads: physics (native
     only), native_threads, episode_length, distance_threshold, max_qvel."""
 
+    robot_name = "fetch"
+    """The robot of the task (`registry.ROBOTS`); `robot` holds it once the task is made."""
     scene: str
     initial_qpos: dict
     block_gripper: bool
@@ -189,23 +191,17 @@ class FetchTask:
 
     def step(self, state: State, action: jax.Array) -> State:
         # NaN actions become 0 and out-of-range ones are clipped (gymnasium-robotics clips);
-        # both are counted, as in the Baxter envs.
-        action, invalid = BaxterEnv.sanitize_action(action)
+        # both are counted, as in every task (`robot.advance`).
+        action, invalid = sanitize_action(action)
         physics = self.robot.step(state.physics, self.robot.controls(state.physics, action))
-        # A diverged env goes back to its episode's start state, never poisoning the batch.
-        diverged = ~jnp.all(jnp.isfinite(physics.sensordata)) | ~jnp.all(
-            jnp.abs(self.backend.qvel(physics)) < self.config.max_qvel
+        state, physics, metrics = advance(
+            state,
+            physics,
+            self.backend.qvel(physics),
+            invalid,
+            self.config.max_qvel,
+            self.episode_length,
         )
-        physics = jax.tree.map(
-            lambda start, new: jnp.where(diverged, start, new), state.info["start_physics"], physics
-        )
-        step = state.info["step"] + 1
-        metrics = {
-            **state.metrics,
-            "invalid_actions": state.metrics["invalid_actions"] + invalid,
-            "physics_resets": state.metrics["physics_resets"] + diverged.astype(jnp.float32),
-        }
-        state = state.replace(info={**state.info, "step": step}, done=step >= self.episode_length)
         return self._observe(state, physics, metrics)
 
     def _observe(self, state: State, physics, metrics: dict) -> State:
