@@ -33,7 +33,7 @@ from mjx_skills.envs.baxter_robot import (
     smooth_path,
 )
 from mjx_skills.envs.physics import PhysicsState
-from mjx_skills.envs.robot import advance, sanitize_action
+from mjx_skills.envs.robot import RobotTask
 
 __all__ = [
     "BaxterEnv",
@@ -57,12 +57,11 @@ __all__ = [
 `envs.baxter_robot`)."""
 
 
-class BaxterEnv:
+class BaxterEnv(RobotTask):
     """Base of every Baxter task and skill env. Subclasses set the class attributes below and
     implement `sample_start` and (optionally) `achieved_goal` / `is_success`."""
 
     robot_name = "baxter"
-    """The robot of the task (`registry.ROBOTS`); `robot` holds it once the task is made."""
     scene: str = "scene_pick_move.xml"
     default_episode_length: int = 50
     default_threshold: float = 0.03
@@ -198,19 +197,3 @@ class BaxterEnv:
     def action_to_controls(self, grip_pos: jax.Array, action: jax.Array):
         """-> (finger ctrl (2,), mocap target (3,)): `BaxterRobot.action_to_controls`."""
         return self.robot.action_to_controls(grip_pos, action)
-
-    sanitize_action = staticmethod(sanitize_action)
-
-    def step(self, state: State, action: jax.Array) -> State:
-        # NaN actions become 0 and out-of-range ones are clipped; both are counted.
-        action, invalid = sanitize_action(action)
-        physics = self.robot.step(state.physics, self.robot.controls(state.physics, action))
-        state, physics, metrics = advance(
-            state,
-            physics,
-            self.backend.qvel(physics),
-            invalid,
-            self.config.max_qvel,
-            self.episode_length,
-        )
-        return self._observe(state, physics, metrics)

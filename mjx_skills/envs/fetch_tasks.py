@@ -16,7 +16,7 @@ import jax.numpy as jnp
 from mjx_skills.config import EnvConfig
 from mjx_skills.core.types import State
 from mjx_skills.envs.fetch import FetchRobot
-from mjx_skills.envs.robot import advance, sanitize_action
+from mjx_skills.envs.robot import RobotTask
 
 MJX_REFUSAL = (
     "MJX is not supported for the Fetch tasks yet: mujoco.mjx.put_model refuses "
@@ -53,13 +53,12 @@ def refuse_unsupported(task: str, config: EnvConfig) -> None:
         raise ValueError(f"{task}: {MJX_REFUSAL} (asked: physics={config.physics!r})")
 
 
-class FetchTask:
+class FetchTask(RobotTask):
     """One Fetch task as a `core.types.GoalEnv`. Subclasses set the class attributes below,
     gymnasium-robotics' arguments of that task. `EnvConfig` fields it reads: physics (native
     only), native_threads, episode_length, distance_threshold, max_qvel."""
 
     robot_name = "fetch"
-    """The robot of the task (`registry.ROBOTS`); `robot` holds it once the task is made."""
     scene: str
     initial_qpos: dict
     block_gripper: bool
@@ -186,21 +185,6 @@ class FetchTask:
             done=jnp.zeros((), bool),
             metrics=metrics,
             info={"step": jnp.zeros((), jnp.int32), "start_physics": physics},
-        )
-        return self._observe(state, physics, metrics)
-
-    def step(self, state: State, action: jax.Array) -> State:
-        # NaN actions become 0 and out-of-range ones are clipped (gymnasium-robotics clips);
-        # both are counted, as in every task (`robot.advance`).
-        action, invalid = sanitize_action(action)
-        physics = self.robot.step(state.physics, self.robot.controls(state.physics, action))
-        state, physics, metrics = advance(
-            state,
-            physics,
-            self.backend.qvel(physics),
-            invalid,
-            self.config.max_qvel,
-            self.episode_length,
         )
         return self._observe(state, physics, metrics)
 

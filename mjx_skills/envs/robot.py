@@ -117,3 +117,34 @@ def advance(
     }
     state = state.replace(info={**state.info, "step": step}, done=step >= episode_length)
     return state, physics, metrics
+
+
+class RobotTask:
+    """Base of every task: (robot, task logic). Subclasses set `robot_name` and, when made,
+    `robot` (that robot's `Robot`), `config` (an `EnvConfig`: its `max_qvel` is read here),
+    `episode_length`, and implement `_observe(state, physics, metrics) -> State` (the
+    observation, achieved goal, reward and success of a physics state)."""
+
+    robot_name: str
+    """The robot of the task (`registry.ROBOTS`); `robot` holds it once the task is made."""
+    robot: Robot
+
+    sanitize_action = staticmethod(sanitize_action)
+
+    def _observe(self, state: State, physics: PhysicsState, metrics: dict) -> State:
+        raise NotImplementedError
+
+    def step(self, state: State, action: jax.Array) -> State:
+        """One env step: the action sanitized (NaN -> 0, clipped to [-1, 1]; counted), the
+        robot's controller and physics step, then `advance`'s bookkeeping."""
+        action, invalid = sanitize_action(action)
+        physics = self.robot.step(state.physics, self.robot.controls(state.physics, action))
+        state, physics, metrics = advance(
+            state,
+            physics,
+            self.robot.backend.qvel(physics),
+            invalid,
+            self.config.max_qvel,
+            self.episode_length,
+        )
+        return self._observe(state, physics, metrics)
