@@ -52,8 +52,11 @@ class ObsLayout:
 
 
 class GoalEnv(Protocol):
-    """What the trainer and the methods use of an env (`envs.baxter.BaxterEnv` is one)."""
+    """What the trainer and the methods use of an env: a task of a robot (`envs.robot`;
+    `envs.baxter.BaxterEnv` and `envs.fetch_tasks.FetchTask` are such tasks)."""
 
+    robot_name: str
+    """The robot the task is of (`envs.registry.ROBOTS`)."""
     obs_dim: int
     goal_dim: int
     action_dim: int
@@ -79,3 +82,23 @@ class GoalEnv(Protocol):
     def compute_reward(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array: ...
 
     def is_success(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array: ...
+
+
+class SkillEnv(GoalEnv, Protocol):
+    """A skill of a robot's skill library (`envs.skills`): what the library, its fits and
+    the search read of it beyond a GoalEnv."""
+
+    param_dim: int
+    """How many goal parameters in [-1, 1] the skill reads (of the library's padded 3)."""
+    state_dims: tuple[int, ...]
+    """The observation's dimensions the skill changes (its model predicts)."""
+    memory_dims: tuple[int, ...]
+    """The observation's dimensions memory retrieval compares (with the goal)."""
+
+    def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
+        """param (..., param_dim) in [-1, 1], obs (..., obs_dim) -> goal (..., goal_dim)."""
+        ...
+
+    def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
+        """obs (..., obs_dim), goal (..., goal_dim) -> (...,) bool: the skill has stopped."""
+        ...

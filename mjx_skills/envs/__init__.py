@@ -1,6 +1,17 @@
-"""Goal-conditioned envs on two physics backends (MJX and native MuJoCo): the Baxter scenes
-and gymnasium-robotics' Fetch tasks (native only)."""
+"""Goal-conditioned envs on two physics backends (MJX and native MuJoCo), each a task of a
+robot (`envs.robot.Robot`): the Baxter scenes and gymnasium-robotics' Fetch tasks (native
+only)."""
 
-from mjx_skills.envs.registry import BAXTER, ENVS, FETCH, SKILLS, TASKS, make
+from mjx_skills.envs.registry import (
+    BAXTER,
+    ENVS,
+    FETCH,
+    ROBOTS,
+    SKILLS,
+    TASKS,
+    make,
+    robot_of,
+    tasks_of,
+)
 
-__all__ = ["BAXTER", "ENVS", "FETCH", "SKILLS", "TASKS", "make"]
+__all__ = ["BAXTER", "ENVS", "FETCH", "ROBOTS", "SKILLS", "TASKS", "make", "robot_of", "tasks_of"]

@@ -6,8 +6,8 @@ sensors added (`mujoco.MjSpec`) so that the native backend's `sensordata` carrie
 kinematic quantity the observation reads; sensors do not act on the dynamics
 (`tests/test_fetch.py` steps both models side by side). The facts below are
 gymnasium-robotics' (`envs/fetch/fetch_env.py`, `utils/mujoco_utils.py`, MIT); the code is
-ours. `FetchRobot` is what a task reads of the robot: a first draft of a robot contract
-(scene, end-effector controller, gripper, observation layout, start state).
+ours. `FetchRobot` is what a task reads of the robot: the `envs.robot.Robot` contract's
+Fetch (scene, end-effector controller, gripper, observation layout, workspace, start state).
 
 Timing, as in gymnasium-robotics: an env step sets the mocap target and the finger
 controls, runs 20 substeps of 0.002 s (`mj_step`), then, where the gripper is blocked
@@ -47,6 +47,9 @@ FINGERS = ("robot0:r_gripper_finger_joint", "robot0:l_gripper_finger_joint")
 """The gripper state's order: the last two `robot*` joints by joint id (`robot_get_obs`)."""
 GRIP, HAND, OBJECT = "robot0:grip", "robot0:gripper_link", "object0"
 """The grip site, the body welded to the mocap, the object's site."""
+WORKSPACE_HEIGHT = 0.5
+"""The workspace reaches this far (m) above the table's top: the goals in the air, at most
+45 cm above a block resting on it (`fetch_tasks.AIR_MAX`), lie within."""
 
 _S, _O = mujoco.mjtSensor, mujoco.mjtObj
 ROBOT_SENSORS = {
@@ -102,6 +105,18 @@ def load_model(scene: str, has_object: bool) -> mujoco.MjModel:
     return model
 
 
+def table_box(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """-> (low (3,), high (3,)), m: the box over the top of the table ('table0'), from its
+    surface to WORKSPACE_HEIGHT above it: Fetch's declared workspace."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    geom = int(np.flatnonzero(model.geom_bodyid == model.body("table0").id)[0])
+    centre, half = data.geom_xpos[geom], model.geom_size[geom]
+    top = centre[2] + half[2]
+    low = np.array([centre[0] - half[0], centre[1] - half[1], top])
+    return low, np.array([centre[0] + half[0], centre[1] + half[1], top + WORKSPACE_HEIGHT])
+
+
 def sensors_of(has_object: bool) -> dict[str, tuple]:
     return {**ROBOT_SENSORS, **(OBJECT_SENSORS if has_object else {})}
 
@@ -135,6 +150,10 @@ class FetchRobot:
     step) and the gripper action is ignored.
     """
 
+    name = "fetch"
+    action_dim = 4
+    action_scale = ACTION_SCALE
+
     def __init__(
         self,
         scene: str,
@@ -143,6 +162,7 @@ class FetchRobot:
         block_gripper: bool,
         n_threads: int = 0,
     ):
+        self.scene = scene
         self.has_object = "object0:joint" in initial_qpos
         self.block_gripper = block_gripper
         self.model = model = load_model(scene, self.has_object)
@@ -170,6 +190,12 @@ class FetchRobot:
             else ObsLayout(size=10, grip=(0, 3), object=(3, 3), rel=(3, 3), fingers=(3, 5))
         )
         """Reach has no object: its object and rel parts are empty."""
+        low, high = table_box(model)
+        self.workspace_low = jnp.asarray(low, jnp.float32)
+        self.workspace_high = jnp.asarray(high, jnp.float32)
+        """The table's top up to WORKSPACE_HEIGHT: where the tasks' objects and goals lie
+        (slide's goals at its far end). Declared, not enforced: gymnasium-robotics' controller
+        moves the mocap without clipping, and so does `controls`."""
 
     def _setup(self, initial_qpos: dict, gripper_extra_height: float) -> None:
         """gymnasium-robotics' `_env_setup`, in float64 on the host, once: the initial joints,
@@ -201,12 +227,16 @@ class FetchRobot:
     def sensors(self, sensordata: jax.Array) -> dict[str, jax.Array]:
         return {name: sensordata[..., s] for name, s in self.sensor_slices.items()}
 
-    def start(self, object_xy: jax.Array | None) -> PhysicsState:
-        """The setup's end state with the object moved to `object_xy` (its height and
-        orientation as the setup left them), sensed after a forward pass (`_reset_sim`)."""
+    def start(self, object_xy: jax.Array | None, grip: jax.Array | None = None) -> PhysicsState:
+        """The setup's end state with the object moved to `object_xy` ((2,), m; or (3,),
+        of which the xy: its height and orientation stay as the setup left them), sensed
+        after a forward pass (`_reset_sim`). The grip starts where the setup left it
+        (`initial_gripper_xpos`): ValueError for any other `grip`."""
+        if grip is not None:
+            raise ValueError("Fetch starts with the grip where the setup leaves it: grip=None")
         qpos = jnp.asarray(self.start_qpos, jnp.float32)
         if self.has_object:
-            qpos = qpos.at[self.object_qpos : self.object_qpos + 2].set(object_xy)
+            qpos = qpos.at[self.object_qpos : self.object_qpos + 2].set(object_xy[:2])
         physics = self.backend.init(qpos, jnp.asarray(self.start_qvel, jnp.float32))
         control = jnp.concatenate([jnp.zeros(self.model.nu), jnp.asarray(self.reset_mocap)])
         return physics.replace(sensordata=self.backend.sense(physics.data, control))

@@ -15,8 +15,8 @@ import jax.numpy as jnp
 
 from mjx_skills.config import EnvConfig
 from mjx_skills.core.types import State
-from mjx_skills.envs.baxter import BaxterEnv
 from mjx_skills.envs.fetch import FetchRobot
+from mjx_skills.envs.robot import RobotTask
 
 MJX_REFUSAL = (
     "MJX is not supported for the Fetch tasks yet: mujoco.mjx.put_model refuses "
@@ -53,11 +53,12 @@ def refuse_unsupported(task: str, config: EnvConfig) -> None:
         raise ValueError(f"{task}: {MJX_REFUSAL} (asked: physics={config.physics!r})")
 
 
-class FetchTask:
+class FetchTask(RobotTask):
     """One Fetch task as a `core.types.GoalEnv`. Subclasses set the class attributes below,
     gymnasium-robotics' arguments of that task. `EnvConfig` fields it reads: physics (native
     only), native_threads, episode_length, distance_threshold, max_qvel."""
 
+    robot_name = "fetch"
     scene: str
     initial_qpos: dict
     block_gripper: bool
@@ -185,27 +186,6 @@ class FetchTask:
             metrics=metrics,
             info={"step": jnp.zeros((), jnp.int32), "start_physics": physics},
         )
-        return self._observe(state, physics, metrics)
-
-    def step(self, state: State, action: jax.Array) -> State:
-        # NaN actions become 0 and out-of-range ones are clipped (gymnasium-robotics clips);
-        # both are counted, as in the Baxter envs.
-        action, invalid = BaxterEnv.sanitize_action(action)
-        physics = self.robot.step(state.physics, self.robot.controls(state.physics, action))
-        # A diverged env goes back to its episode's start state, never poisoning the batch.
-        diverged = ~jnp.all(jnp.isfinite(physics.sensordata)) | ~jnp.all(
-            jnp.abs(self.backend.qvel(physics)) < self.config.max_qvel
-        )
-        physics = jax.tree.map(
-            lambda start, new: jnp.where(diverged, start, new), state.info["start_physics"], physics
-        )
-        step = state.info["step"] + 1
-        metrics = {
-            **state.metrics,
-            "invalid_actions": state.metrics["invalid_actions"] + invalid,
-            "physics_resets": state.metrics["physics_resets"] + diverged.astype(jnp.float32),
-        }
-        state = state.replace(info={**state.info, "step": step}, done=step >= self.episode_length)
         return self._observe(state, physics, metrics)
 
     def _observe(self, state: State, physics, metrics: dict) -> State:

@@ -1,4 +1,5 @@
-"""One registry of every env: `make(name, **config_overrides)`."""
+"""One registry of every robot and every env: `make(name, **config_overrides)`, the robot a
+task declares (`robot_of`), the tasks of a robot (`tasks_of`)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,8 @@ import dataclasses
 
 from mjx_skills.config import EnvConfig
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.envs.baxter import BaxterEnv
+from mjx_skills.envs.baxter import BaxterEnv, BaxterRobot
+from mjx_skills.envs.fetch import FetchRobot
 from mjx_skills.envs.fetch_tasks import FETCH_TASKS, FetchTask
 from mjx_skills.envs.skills import Grasp, Transfer, Transit
 from mjx_skills.envs.tasks import ContainerWall, PickMove, PutInContainer, PutOn, TakeOut
@@ -28,14 +30,42 @@ BAXTER: dict[str, type[BaxterEnv]] = {
 FETCH: dict[str, type[FetchTask]] = dict(FETCH_TASKS)
 """gymnasium-robotics' Fetch tasks (envs/fetch_tasks.py): flat methods (ddpg_her) only."""
 ENVS: dict[str, type] = {**BAXTER, **FETCH}
+ROBOTS: dict[str, type] = {BaxterRobot.name: BaxterRobot, FetchRobot.name: FetchRobot}
+"""Robot name -> its class, an `envs.robot.Robot` (each task declares one: `robot_name`)."""
 SKILLS = ("transit", "grasp", "transfer")
 TASKS = ("pick_move", "put_in_container", "put_on", "take_out", "container_wall",
          "pick_move_two", "two_in_container")  # fmt: skip
 
 
+SKILL_ROBOTS = {BAXTER["transit"].robot_name: SKILLS}
+"""Robot name -> its skill envs, for the robots a skill library can be built for
+(`python -m mjx_skills.build_library` trains these); a robot absent has none yet."""
+
+
 def check_name(name: str) -> None:
+    """ValueError naming the valid tasks if `name` is not one."""
     if name not in ENVS:
         raise ValueError(f"unknown task {name!r}; valid: {', '.join(ENVS)}")
+
+
+def check_robot(name: str) -> None:
+    """ValueError naming the valid robots if `name` is not one."""
+    if name not in ROBOTS:
+        raise ValueError(f"unknown robot {name!r}; valid: {', '.join(ROBOTS)}")
+
+
+def robot_of(task: str) -> str:
+    """The name of the robot task `task` declares ('baxter', 'fetch'); ValueError naming the
+    valid tasks for an unknown one."""
+    check_name(task)
+    return ENVS[task].robot_name
+
+
+def tasks_of(robot: str) -> tuple[str, ...]:
+    """The tasks (and skills) of robot `robot`, in registry order; ValueError naming the
+    valid robots for an unknown one."""
+    check_robot(robot)
+    return tuple(name for name, cls in ENVS.items() if cls.robot_name == robot)
 
 
 def make(name: str, config: EnvConfig | None = None, **overrides) -> GoalEnv:

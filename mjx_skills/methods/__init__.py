@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from mjx_skills.config import DDPGConfig, EnvConfig, PASConfig, SearchConfig
@@ -99,22 +100,16 @@ def check_task(
     skills act on any cube through the scene's projection onto (gripper, that cube)) except
     PAS / MPAS with the thesis's joint critic, which runs the one-cube tasks only
     (`options`: the method's option groups). Also refused: DDPG+HER+SL+BC with the scripted
-    explorer, which drives no library skill, so that nothing would be cloned. A Fetch task
-    runs the methods without a skill library only, with an env config it can honour."""
-    from mjx_skills.envs.registry import BAXTER, ENVS, FETCH
+    explorer, which drives no library skill, so that nothing would be cloned. A task of
+    another robot than the library's is refused (`check_library_robot`); a Fetch task runs
+    with an env config it can honour."""
+    from mjx_skills.envs.registry import ENVS, FETCH, check_name
 
-    spec = get(method)
+    check_name(task)
+    check_library_robot(method, task, options)
     if task in FETCH:
-        if spec.library_group is not None:
-            flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)
-            raise ValueError(
-                f"the skill library is built for the Baxter robot; {task} is a Fetch task "
-                f"(gymnasium-robotics'), which {method} cannot run: train it with {flat}"
-            )
         FETCH[task].check_config(env or EnvConfig())
         return
-    if task not in BAXTER:
-        raise ValueError(f"unknown task {task!r}; valid: {', '.join(ENVS)}")
     cubes = ENVS[task].n_objects
     options = options or {}
     pas = options.get("pas")
@@ -138,6 +133,44 @@ def check_task(
         raise ValueError(f"ddpg_her_sl_bc clones the skills the look-ahead search drives; "
                          f"--search.explorer {search.explorer} drives none, so nothing would be "
                          f"cloned: use ddpg_her_sl for the {search.explorer} explorer")  # fmt: skip
+
+
+def check_library_robot(method: str, task: str, options: dict[str, Any] | None = None) -> None:
+    """ValueError if `method` reads a skill library built for another robot than `task`'s
+    (the library its option group's `library_dir` names: its manifest's robot; a library
+    not built yet would be `build_library`'s, of the robot of the skill envs). The message
+    names the library's robot and how to build one for the task's robot, or says that no
+    command builds one yet. Reads only the manifest: nothing is loaded or written."""
+    from mjx_skills.core.files import read_json
+    from mjx_skills.envs.registry import SKILL_ROBOTS, SKILLS, robot_of
+    from mjx_skills.skills.library import library_robot
+
+    spec = get(method)
+    group = spec.library_group
+    if group is None:
+        return
+    robot = robot_of(task)
+    directory = Path((options or {}).get(group, spec.options[group]).library_dir)
+    manifest = directory / "manifest.json"
+    built_for = library_robot(read_json(manifest)) if manifest.exists() else robot_of(SKILLS[0])
+    if built_for == robot:
+        return
+    flag = f"--{group}.library-dir"
+    said = f"the skill library is built for the {built_for.capitalize()} robot ({directory})"
+    if robot in SKILL_ROBOTS:
+        raise ValueError(
+            f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run with "
+            f"it: build a {robot.capitalize()} library with `python -m mjx_skills.build_library "
+            f"--out DIR` and pass {flag} DIR"
+        )
+    flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)
+    raise ValueError(
+        f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run: no "
+        f"command builds a {robot.capitalize()} skill library yet (`python -m "
+        f"mjx_skills.build_library` trains the skill envs {', '.join(SKILLS)}, which are "
+        f"{built_for.capitalize()}'s; a {robot.capitalize()} library is future work, issue "
+        f"#45): train {task} with {flat}"
+    )
 
 
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:

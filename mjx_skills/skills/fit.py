@@ -24,7 +24,7 @@ from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, LibraryConfig
 from mjx_skills.core import optim
 from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
-from mjx_skills.envs.baxter import BaxterEnv
+from mjx_skills.core.types import SkillEnv
 
 NORM_FLOOR = 1e-3
 """Smallest std used to normalise a model input or output dimension (m, rad, m/s)."""
@@ -32,8 +32,8 @@ NORM_FLOOR = 1e-3
 
 # ---------------------------------------------------------------------- collection
 def make_collect(
-    skill_env: BaxterEnv,
-    start_envs: tuple[BaxterEnv, ...],
+    skill_env: SkillEnv,
+    start_envs: tuple[SkillEnv, ...],
     counts: tuple[int, ...],
     ddpg_config: DDPGConfig,
 ) -> Callable[[ddpg.DDPGState, jax.Array], dict[str, jax.Array]]:

@@ -33,8 +33,7 @@ from mjx_skills.core.files import read_json, tree_sha256, write_json_atomic
 from mjx_skills.core.grouped import apply_per_row, select
 from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
 from mjx_skills.core.paths import check_writable_path
-from mjx_skills.core.types import ObsLayout
-from mjx_skills.envs.baxter import LAYOUT, BaxterEnv
+from mjx_skills.core.types import ObsLayout, SkillEnv
 from mjx_skills.envs.registry import SKILLS, make
 from mjx_skills.skills.provenance import DEFINING, definition_sha256, provenance, stale_reasons
 from mjx_skills.skills.provenance import scene_files as scene_files  # re-exported
@@ -46,6 +45,9 @@ LIBRARIES = dict(zip(LIBRARY_NAMES, (("transit", "grasp", "transfer"), ("grasp",
 the full one, SL1, and two reduced ones."""
 FORMAT = 1
 """Version of the on-disk layout; a library of another format is refused."""
+UNRECORDED_ROBOT = "baxter"
+"""The robot of a library whose manifest records none: built before robots were recorded,
+when Baxter was the only robot with skills (`library_robot`)."""
 DEFAULT_DIR = Path("experiments") / "skill_library"
 log = logging.getLogger(__name__)
 
@@ -91,7 +93,7 @@ class SkillLibrary:
     config: LibraryConfig = struct.field(pytree_node=False)
 
     @property
-    def envs(self) -> tuple[BaxterEnv, ...]:
+    def envs(self) -> tuple[SkillEnv, ...]:
         return skill_envs(self.names)
 
     @property
@@ -228,14 +230,14 @@ def consistent(layout: ObsLayout, predicted: jax.Array) -> jax.Array:
     return predicted.at[..., layout["rel"]].set(rel)
 
 
-def skill_envs(names: tuple[str, ...]) -> tuple[BaxterEnv, ...]:
+def skill_envs(names: tuple[str, ...]) -> tuple[SkillEnv, ...]:
     return tuple(_skill_env(n) for n in names)
 
 
-_ENV_CACHE: dict[str, BaxterEnv] = {}
+_ENV_CACHE: dict[str, SkillEnv] = {}
 
 
-def _skill_env(name: str) -> BaxterEnv:
+def _skill_env(name: str) -> SkillEnv:
     if name not in SKILLS:
         raise ValueError(f"unknown skill {name!r}; valid: {', '.join(SKILLS)}")
     if name not in _ENV_CACHE:
@@ -268,11 +270,18 @@ def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
     full = {**manifest, "format": FORMAT, **(made_by or provenance()), "skills": list(lib.names),
             "ddpg": dataclasses.asdict(lib.ddpg_config),
             "library": dataclasses.asdict(lib.config), "complete": True}  # fmt: skip
+    full["robot"] = lib.envs[0].robot_name
     full["digest"] = tree_sha256(lib)
     full["definition"] = definition_sha256(full)
     write_json_atomic(tmp / "manifest.json", full, indent=2)
     tmp.rename(directory)
     return directory
+
+
+def library_robot(manifest: dict[str, Any]) -> str:
+    """The robot a library was built for: its manifest's `robot` ('baxter' where it records
+    none, `UNRECORDED_ROBOT`)."""
+    return manifest.get("robot", UNRECORDED_ROBOT)
 
 
 def read_manifest(directory: Path) -> dict[str, Any]:
@@ -348,7 +357,7 @@ def empty_like(
     """A library of the right shapes and zeros (the template that loading fills in)."""
     from mjx_skills.skills.fit import init_models
 
-    K, obs_dim, goal_dim = len(names), LAYOUT.size, 3
+    K, obs_dim, goal_dim = len(names), skill_envs(names)[0].layout.size, 3
     keys = jax.random.split(jax.random.PRNGKey(0), K)
     policy = jax.vmap(lambda k: ddpg.init(k, obs_dim, goal_dim, 4, ddpg_config))(keys)
     dynamics, classifier = init_models(keys, config, obs_dim, goal_dim)
