@@ -73,10 +73,11 @@ MJX_REFUSALS: dict[str, str] = {
 """Scene -> why MJX cannot run it (checked by tests/test_fetch_mjx.py against put_model)."""
 
 
-def edit_for_mjx(model: mujoco.MjModel) -> mujoco.MjModel:
-    """A copy of `model` with every `MJX_EDITS` edit applied (the argument is untouched)."""
+def edit_for_mjx(model: mujoco.MjModel, edits: tuple[ModelEdit, ...] = MJX_EDITS) -> mujoco.MjModel:
+    """A copy of `model` with `edits` (default: every edit of the MJX path) applied; the
+    argument is left untouched."""
     edited = copy.copy(model)  # MjModel's copy is a deep copy
-    for edit in MJX_EDITS:
+    for edit in edits:
         edit.apply(edited)
     return edited
 
@@ -177,8 +178,10 @@ def deviations(ref: dict, other: dict, env) -> dict[str, float]:
     }
     if env.goal_is_object:
         adr = env.robot.object_qpos + 3
-        dot = np.abs(
-            np.sum(ref["qpos"][..., adr : adr + 4] * other["qpos"][..., adr : adr + 4], -1)
-        )
-        out["angle"] = float(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)).max())
+        q1, q2 = (np.asarray(x["qpos"][..., adr : adr + 4], np.float64) for x in (ref, other))
+        q1, q2 = (q / np.linalg.norm(q, axis=-1, keepdims=True) for q in (q1, q2))
+        q2 *= np.where(np.sum(q1 * q2, -1) < 0, -1.0, 1.0)[..., None]  # q and -q: one turn
+        # The rotation between them turns by 4 arcsin(|q1 - q2| / 2): exact near 0 too.
+        chord = np.linalg.norm(q1 - q2, axis=-1)
+        out["angle"] = float((4.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0))).max())
     return out
