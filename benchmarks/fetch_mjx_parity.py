@@ -34,7 +34,14 @@ import numpy as np
 
 from mjx_skills.core import compile_cache
 from mjx_skills.envs import make
-from mjx_skills.envs.fetch_mjx import MJX_EDITS, deviations, edit_for_mjx, lockstep, with_start
+from mjx_skills.envs.fetch_mjx import (
+    MJX_EDITS,
+    ROBOT_PREFIX,
+    deviations,
+    edit_for_mjx,
+    lockstep,
+    with_start,
+)
 from mjx_skills.envs.physics import NativeBackend
 
 TASKS = ("fetch_reach", "fetch_push", "fetch_pick_and_place")
@@ -51,6 +58,18 @@ def native_on_edited_model(env):
     return env
 
 
+def robot_self_contacts(model: mujoco.MjModel, qpos: np.ndarray) -> int:
+    """Robot-robot contacts (`fetch_mjx.ROBOT_PREFIX` bodies) of `model` over the states
+    qpos (..., nq), each after `mj_forward`: what the self-collision edit removes."""
+    robot = np.array([model.body(b).name.startswith(ROBOT_PREFIX) for b in model.geom_bodyid])
+    data, count = mujoco.MjData(model), 0
+    for q in qpos.reshape(-1, model.nq):
+        data.qpos[:] = q
+        mujoco.mj_forward(model, data)
+        count += sum(bool(robot[c.geom].all()) for c in data.contact[: data.ncon])
+    return count
+
+
 def measure(task: str, n_envs: int, n_steps: int, seed: int) -> dict:
     reference = make(task, physics="native")
     on_mjx = make(task, physics="mjx")
@@ -65,11 +84,8 @@ def measure(task: str, n_envs: int, n_steps: int, seed: int) -> dict:
     runs = lockstep(envs, jax.random.PRNGKey(seed), n_envs, n_steps)
     seconds = time.perf_counter() - t0
     ref = runs["reference"]
-    moved = np.linalg.norm(
-        ref["obs"][-1, :, reference.layout["object" if reference.goal_is_object else "grip"]]
-        - ref["obs"][0, :, reference.layout["object" if reference.goal_is_object else "grip"]],
-        axis=-1,
-    )
+    goal_part = reference.layout["object" if reference.goal_is_object else "grip"]
+    moved = np.linalg.norm(ref["obs"][-1][:, goal_part] - ref["obs"][0][:, goal_part], axis=-1)
     return {
         "task": task,
         "envs": n_envs,
@@ -81,6 +97,7 @@ def measure(task: str, n_envs: int, n_steps: int, seed: int) -> dict:
         "setup": {"joints": setup},
         "physics_resets": {name: run["resets"] for name, run in runs.items()},
         "moved_max_m": float(moved.max()),
+        "reference_robot_self_contacts": robot_self_contacts(reference.model, ref["qpos"]),
         "model_edits": [edit.name for edit in MJX_EDITS],
         "seconds_with_compile": round(seconds, 1),
         "device": jax.default_backend(),

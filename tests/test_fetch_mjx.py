@@ -10,6 +10,7 @@ import jax
 import mujoco
 import numpy as np
 import pytest
+from mujoco.mjx._src import collision_driver  # noqa: E402  (MJX's own pair list)
 
 from mjx_skills.config import EnvConfig
 from mjx_skills.envs import make
@@ -17,6 +18,7 @@ from mjx_skills.envs.fetch import load_model
 from mjx_skills.envs.fetch_mjx import (
     MJX_EDITS,
     MJX_REFUSALS,
+    ROBOT_PREFIX,
     deviations,
     edit_for_mjx,
     lockstep,
@@ -26,7 +28,7 @@ from mjx_skills.envs.fetch_mjx import (
 from mjx_skills.envs.physics import mjx
 
 MJX_SCENES = ("reach", "push", "pick_and_place")
-PARITY_TASK, PARITY_ENVS, PARITY_STEPS = "fetch_pick_and_place", 1, 25
+PARITY_TASK, PARITY_ENVS, PARITY_STEPS = "fetch_pick_and_place", 1, 20
 """Pick and place: the fingers move, and its observation reads the state before the last
 substep (`MjxBackend.step_with_previous`); the blocked-gripper path is Reach's and Push's."""
 BOUNDS = {"position": 5e-3, "velocity": 0.1, "angle": 0.02, "joints": 0.02}
@@ -59,14 +61,24 @@ def test_each_mjx_edit_is_needed_and_together_they_are_enough(scene):
         for name, value in _array_fields(edited).items()
         if value.shape != before[name].shape or not np.array_equal(value, before[name])
     }
-    assert changed == {"geom_margin"}, changed
+    assert changed == {"geom_margin", "geom_contype", "geom_conaffinity"}, changed
     assert int(np.sum(edited.geom_margin != model.geom_margin)) == 17
     assert not edited.geom_margin.any()
-    for edit in MJX_EDITS:  # each edit alone is not enough: none is superfluous
-        others = [e for e in MJX_EDITS if e is not edit]
-        partial = edit_for_mjx(model, tuple(others))
-        with pytest.raises(NotImplementedError):
-            mjx.put_model(partial)
+    # Without the margin edit put_model refuses; without the self-collision one MJX keeps the
+    # arm's mesh-mesh pairs (whose compile exhausts a CPU's memory); each does its part only.
+    margins, self_collisions = MJX_EDITS
+    with pytest.raises(NotImplementedError, match=r"MESH\) margin/gap not implemented"):
+        mjx.put_model(edit_for_mjx(model, (self_collisions,)))
+    pairs = {
+        label: {(g1, g2) for g1, g2, _ in collision_driver.geom_pairs(edit_for_mjx(model, edits))}
+        for label, edits in (("all", MJX_EDITS), ("margins only", (margins,)))
+    }
+    robot = [model.body(b).name.startswith(ROBOT_PREFIX) for b in model.geom_bodyid]
+    mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
+    assert any(mesh[g1] and mesh[g2] for g1, g2 in pairs["margins only"])
+    assert not any(mesh[g1] and mesh[g2] for g1, g2 in pairs["all"])
+    # Every pair but the robot's against itself still collides.
+    assert pairs["all"] == {(a, b) for a, b in pairs["margins only"] if not robot[a] & robot[b]}
 
 
 def test_slide_is_refused_on_mjx_with_mjx_reason():
