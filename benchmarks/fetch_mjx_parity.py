@@ -15,6 +15,7 @@ All three rollouts of a task start from the same state (the reference's setup, w
 orientation rad, qpos entries).
 
     python benchmarks/fetch_mjx_parity.py [--tasks fetch_reach ...] [--envs 2] [--steps 50]
+        [--no-mjx]
 
 Prints one JSON row per task (benchmarks/results/fetch_mjx_parity.jsonl). MJX compiles for
 minutes on a CPU: a row costs one MJX compile.
@@ -70,16 +71,16 @@ def robot_self_contacts(model: mujoco.MjModel, qpos: np.ndarray) -> int:
     return count
 
 
-def measure(task: str, n_envs: int, n_steps: int, seed: int) -> dict:
+def measure(task: str, n_envs: int, n_steps: int, seed: int, with_mjx: bool = True) -> dict:
+    """One row; `with_mjx=False`: the native rollouts only (the edits' effect; no MJX
+    compile), its MJX entries null."""
     reference = make(task, physics="native")
-    on_mjx = make(task, physics="mjx")
+    on_mjx = make(task, physics="mjx")  # put_model and the setup only: nothing compiled yet
     setup = float(np.abs(on_mjx.robot.start_qpos - reference.robot.start_qpos).max())
     start = (reference.robot.start_qpos, reference.robot.start_qvel)
-    envs = {
-        "reference": reference,
-        "edits": native_on_edited_model(reference),
-        "mjx": with_start(on_mjx, *start),
-    }
+    envs = {"reference": reference, "edits": native_on_edited_model(reference)}
+    if with_mjx:
+        envs["mjx"] = with_start(on_mjx, *start)
     t0 = time.perf_counter()
     runs = lockstep(envs, jax.random.PRNGKey(seed), n_envs, n_steps)
     seconds = time.perf_counter() - t0
@@ -92,8 +93,8 @@ def measure(task: str, n_envs: int, n_steps: int, seed: int) -> dict:
         "steps": n_steps,
         "seed": seed,
         "edits": deviations(ref, runs["edits"], reference),
-        "mjx": deviations(ref, runs["mjx"], reference),
-        "mjx_vs_edits": deviations(runs["edits"], runs["mjx"], reference),
+        "mjx": deviations(ref, runs["mjx"], reference) if with_mjx else None,
+        "mjx_vs_edits": deviations(runs["edits"], runs["mjx"], reference) if with_mjx else None,
         "setup": {"joints": setup},
         "physics_resets": {name: run["resets"] for name, run in runs.items()},
         "moved_max_m": float(moved.max()),
@@ -112,11 +113,13 @@ def main() -> None:
     parser.add_argument("--envs", type=int, default=2)
     parser.add_argument("--steps", type=int, default=50)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--no-mjx", action="store_true", help="native rollouts only")
     args = parser.parse_args()
     compile_cache.enable()
     warnings.filterwarnings("ignore", message="Mesh .* coplanar face")
     for task in args.tasks:
-        print(json.dumps(measure(task, args.envs, args.steps, args.seed)), flush=True)
+        row = measure(task, args.envs, args.steps, args.seed, not args.no_mjx)
+        print(json.dumps(row), flush=True)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 """The Fetch robot of gymnasium-robotics 1.4.2 for JAX envs: scene, controller, gripper,
-observation and start state, on the native MuJoCo backend.
+observation and start state, on the native MuJoCo backend or MJX (`envs/fetch_mjx.py`).
 
 The MJCF is the installed gymnasium-robotics package's own (never copied into xml/), with
 sensors added (`mujoco.MjSpec`) so that the native backend's `sensordata` carries every
