@@ -2,7 +2,7 @@
 process (the reference: `envs/fetch_reference.py`, their code with its joint-type checks
 patched for mujoco 4.0): the same steps from the same starts, the same start and goal
 distributions, the same rewards and successes; the scripted controllers solve them here;
-what the env refuses (MJX, the Baxter scenes' options, the skill library)."""
+what the env refuses (the Baxter scenes' options, the skill library)."""
 
 from __future__ import annotations
 
@@ -302,17 +302,15 @@ def test_scripted_controllers_solve_the_tasks_in_this_physics(task):
 
 
 # ---------------------------------------------------------------- what Fetch refuses
-@pytest.mark.parametrize("physics", ["mjx", "auto"])
-def test_mjx_is_refused_with_the_reason(physics):
-    if physics == "auto" and jax.default_backend() == "cpu":
+def test_auto_is_native_on_a_cpu():
+    """MJX (its model edits, Slide's refusal, its parity): tests/test_fetch_mjx.py."""
+    if jax.default_backend() == "cpu":
         assert make("fetch_reach", physics="auto").backend.name == "native"
-        return
-    with pytest.raises(ValueError, match="MJX is not supported for the Fetch tasks yet"):
-        make("fetch_reach", physics=physics)
 
 
 def test_mjx_still_cannot_take_the_fetch_model():
-    """The reason the refusal gives (when this fails, MJX may run Fetch: revisit)."""
+    """Why the MJX path edits the model (envs/fetch_mjx.py; when this fails, MJX may run the
+    unedited model: revisit the edits)."""
     with pytest.raises(NotImplementedError, match=r"PLANE, \S*MESH\) margin/gap not implemented"):
         mjx.put_model(programs("fetch_push")[0].model)
 

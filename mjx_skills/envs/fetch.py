@@ -1,5 +1,5 @@
 """The Fetch robot of gymnasium-robotics 1.4.2 for JAX envs: scene, controller, gripper,
-observation and start state, on the native MuJoCo backend.
+observation and start state, on the native MuJoCo backend or MJX (`envs/fetch_mjx.py`).
 
 The MJCF is the installed gymnasium-robotics package's own (never copied into xml/), with
 sensors added (`mujoco.MjSpec`) so that the native backend's `sensordata` carries every
@@ -29,7 +29,8 @@ import mujoco
 import numpy as np
 
 from mjx_skills.core.types import ObsLayout
-from mjx_skills.envs.physics import NativeBackend, PhysicsState
+from mjx_skills.envs.fetch_mjx import fetch_backend
+from mjx_skills.envs.physics import PhysicsState
 
 N_SUBSTEPS = 20
 """Substeps of the model's 0.002 s per env step (0.04 s: 25 Hz)."""
@@ -147,7 +148,8 @@ class FetchRobot:
     scene: 'reach', 'push', 'slide' or 'pick_and_place' (the MJCF file); initial_qpos:
     joint name -> value, set before the setup; gripper_extra_height: the setup's target
     height above the default; block_gripper: the fingers are held at 0 (reset after every
-    step) and the gripper action is ignored.
+    step) and the gripper action is ignored; physics: 'native' (the model as loaded) or
+    'mjx' (`envs.fetch_mjx`: the model with MJX's edits, on which the setup runs too).
     """
 
     name = "fetch"
@@ -161,12 +163,13 @@ class FetchRobot:
         gripper_extra_height: float,
         block_gripper: bool,
         n_threads: int = 0,
+        physics: str = "native",
     ):
         self.scene = scene
         self.has_object = "object0:joint" in initial_qpos
         self.block_gripper = block_gripper
-        self.model = model = load_model(scene, self.has_object)
-        self.backend = NativeBackend(model, n_threads, mocap_quat=True)
+        self.backend = fetch_backend(load_model(scene, self.has_object), physics, n_threads)
+        self.model = model = self.backend.model
         self.dt = N_SUBSTEPS * float(model.opt.timestep)
         """Seconds per env step; the observation's velocities are multiplied by it."""
         self.sensor_slices = {

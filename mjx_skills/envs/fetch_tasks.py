@@ -5,7 +5,8 @@ Each task is the original's parameters (`envs/fetch/{reach,push,slide,pick_and_p
 read by one `FetchTask` (`fetch_env.py`'s sampling, reward and success); the robot, its
 controller and observation are `envs.fetch.FetchRobot`. Facts are gymnasium-robotics'
 (MIT); the code is ours, and never calls theirs (`envs/fetch_reference.py` builds theirs
-for the tests). MJX is not supported yet (`MJX_REFUSAL`).
+for the tests). On MJX they step the model with `envs.fetch_mjx.MJX_EDITS`; Slide, which
+MJX cannot collide, is refused there (`fetch_mjx.MJX_REFUSALS`).
 """
 
 from __future__ import annotations
@@ -16,14 +17,9 @@ import jax.numpy as jnp
 from mjx_skills.config import EnvConfig
 from mjx_skills.core.types import State
 from mjx_skills.envs.fetch import FetchRobot
+from mjx_skills.envs.fetch_mjx import resolve_physics
 from mjx_skills.envs.robot import RobotTask
 
-MJX_REFUSAL = (
-    "MJX is not supported for the Fetch tasks yet: mujoco.mjx.put_model refuses "
-    "gymnasium-robotics' Fetch model ('(PLANE, MESH) margin/gap not implemented': 15 of its "
-    "mesh geoms have margin 0.001, which MJX's plane-mesh collision does not implement); use "
-    "physics='native'"
-)
 UNUSED_FIELDS = tuple(
     "timestep n_substeps solver_iterations ls_iterations action_scale settle_substeps "
     "grasp_settle_substeps posture_stiffness held_start_prob goal_start_prob object_reward "
@@ -37,9 +33,10 @@ AIR_PROB, AIR_MAX = 0.5, 0.45
 """target_in_the_air: half the goals are lifted by up to 45 cm (`_sample_goal`)."""
 
 
-def refuse_unsupported(task: str, config: EnvConfig) -> None:
-    """ValueError if `config` asks a Fetch task for what it does not do: MJX, or a field of
-    the Baxter scenes (`UNUSED_FIELDS`) set away from its default."""
+def refuse_unsupported(task: str, config: EnvConfig, scene: str) -> None:
+    """ValueError if `config` asks a Fetch task for what it does not do: MJX where MJX cannot
+    run `scene` (`fetch_mjx.MJX_REFUSALS`), or a field of the Baxter scenes
+    (`UNUSED_FIELDS`) set away from its default."""
     default = EnvConfig()
     for field in UNUSED_FIELDS:
         if getattr(config, field) != getattr(default, field):
@@ -49,14 +46,16 @@ def refuse_unsupported(task: str, config: EnvConfig) -> None:
                 f"{field} ({flag}) is for the Baxter scenes; leave it at its default "
                 f"{getattr(default, field)!r}"
             )
-    if config.physics == "mjx" or (config.physics == "auto" and jax.default_backend() != "cpu"):
-        raise ValueError(f"{task}: {MJX_REFUSAL} (asked: physics={config.physics!r})")
+    try:
+        resolve_physics(scene, config.physics)
+    except ValueError as refusal:
+        raise ValueError(f"{task}: {refusal} (asked: physics={config.physics!r})") from None
 
 
 class FetchTask(RobotTask):
     """One Fetch task as a `core.types.GoalEnv`. Subclasses set the class attributes below,
-    gymnasium-robotics' arguments of that task. `EnvConfig` fields it reads: physics (native
-    only), native_threads, episode_length, distance_threshold, max_qvel."""
+    gymnasium-robotics' arguments of that task. `EnvConfig` fields it reads: physics ('auto'
+    is native on a CPU and for Slide), native_threads, episode_length, distance_threshold, max_qvel."""
 
     robot_name = "fetch"
     scene: str
@@ -90,6 +89,7 @@ class FetchTask(RobotTask):
             self.gripper_extra_height,
             self.block_gripper,
             config.native_threads,
+            resolve_physics(self.scene, config.physics),
         )
         self.model, self.backend, self.layout = (
             self.robot.model,
@@ -107,7 +107,7 @@ class FetchTask(RobotTask):
     def check_config(cls, config: EnvConfig) -> None:
         """ValueError if this task cannot honour `config` (`refuse_unsupported`): called
         before a run writes anything, and again when the env is made."""
-        refuse_unsupported(cls.__name__, config)
+        refuse_unsupported(cls.__name__, config, cls.scene)
 
     # ------------------------------------------------------------------ goals
     def achieved_from_obs(self, obs: jax.Array) -> jax.Array:

@@ -85,8 +85,12 @@ class MjxBackend:
 
     name = "mjx"
 
-    def __init__(self, model: mujoco.MjModel):
+    def __init__(self, model: mujoco.MjModel, mocap_quat: bool = False):
+        """`mocap_quat`: each substep's mocap input is position and quaternion (7 numbers
+        per mocap body), as `NativeBackend`'s. NotImplementedError where `mjx.put_model`
+        refuses the model."""
         self.model = model
+        self.mocap_quat = mocap_quat
         self.mjx_model = mjx.put_model(model)
         self._data0 = mjx.make_data(model)
 
@@ -95,16 +99,51 @@ class MjxBackend:
         return PhysicsState(data=data, sensordata=jnp.zeros(self.model.nsensordata, jnp.float32))
 
     def step(self, state: PhysicsState, ctrl: jax.Array, mocap_path: jax.Array) -> PhysicsState:
-        def substep(d, mocap_pos):
-            return mjx.step(self.mjx_model, d.replace(mocap_pos=mocap_pos.reshape(-1, 3))), None
+        def substep(d, mocap):
+            return mjx.step(self.mjx_model, self._with_mocap(d, mocap)), None
 
+        data, _ = jax.lax.scan(substep, self._cold(state.data, ctrl), mocap_path)
+        return PhysicsState(data=data, sensordata=data.sensordata)
+
+    def step_with_previous(
+        self, state: PhysicsState, ctrl: jax.Array, mocap_path: jax.Array
+    ) -> tuple[PhysicsState, Any]:
+        """`step`, and also the data before the last substep: the end's `mjx.Data` with the
+        qpos that substep started from (all that `sense` reads of it but qvel, which
+        callers set)."""
+
+        def substep(carry, mocap):
+            d = self._with_mocap(carry[0], mocap)
+            return (mjx.step(self.mjx_model, d), d.qpos), None
+
+        data = self._cold(state.data, ctrl)
+        (data, previous_qpos), _ = jax.lax.scan(substep, (data, data.qpos), mocap_path)
+        return PhysicsState(data=data, sensordata=data.sensordata), data.replace(qpos=previous_qpos)
+
+    @staticmethod
+    def _cold(data: Any, ctrl: jax.Array) -> Any:
         # Each env step starts the solver cold, as mujoco.rollout does on the native side
         # (its state vector carries no warmstart): the two backends then agree closely.
-        data = state.data.replace(
-            ctrl=ctrl, qacc_warmstart=jnp.zeros_like(state.data.qacc_warmstart)
-        )
-        data, _ = jax.lax.scan(substep, data, mocap_path)
-        return PhysicsState(data=data, sensordata=data.sensordata)
+        return data.replace(ctrl=ctrl, qacc_warmstart=jnp.zeros_like(data.qacc_warmstart))
+
+    def _with_mocap(self, data: Any, mocap: jax.Array) -> Any:
+        """One substep's mocap input: (3 * nmocap,) positions, or (7 * nmocap,) positions and
+        quaternions with `mocap_quat` (MuJoCo normalises the quaternion)."""
+        if not self.mocap_quat:
+            return data.replace(mocap_pos=mocap.reshape(-1, 3))
+        mocap = mocap.reshape(-1, 7)
+        return data.replace(mocap_pos=mocap[:, :3], mocap_quat=mocap[:, 3:])
+
+    def sense(self, data: Any, control: jax.Array) -> jax.Array:
+        """(nsensordata,) the position and velocity sensors of `data`'s qpos and qvel with
+        `control`'s mocap inputs (one substep's ctrl and mocap, as `NativeBackend.sense`):
+        kinematics and sensors only, no collision or solver (cheap to compile). Sensors of
+        the acceleration stage are left as `data` holds them."""
+        data = self._with_mocap(data, control[self.model.nu :])
+        data = mjx.com_pos(self.mjx_model, mjx.kinematics(self.mjx_model, data))
+        data = mjx.sensor_pos(self.mjx_model, data)
+        data = mjx.com_vel(self.mjx_model, data)
+        return mjx.sensor_vel(self.mjx_model, data).sensordata
 
     def settle(self, state, mocap_pos, phases, edit):
         # One scan over both phases, the edit selected in at its substep: each mjx.step in a
@@ -130,6 +169,9 @@ class MjxBackend:
 
     def qvel(self, state: PhysicsState) -> jax.Array:
         return state.data.qvel
+
+    def set_qpos_qvel(self, state: PhysicsState, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
+        return state.replace(data=state.data.replace(qpos=qpos, qvel=qvel))
 
 
 class NativeBackend:
