@@ -88,7 +88,7 @@ def test_slide_is_refused_on_mjx_with_mjx_reason():
 @pytest.mark.parametrize("task", ["fetch_reach", "fetch_push", "fetch_pick_and_place"])
 def test_the_scenes_mjx_loads_are_refused_until_measured(task):
     """put_model takes the edited model, but the MJX path is not shown to compile and run
-    (its scanned step passed 8 GB on a CPU): refused with that reason, before any run."""
+    (its scanned step's compile ran out of memory on a CPU): refused with that reason, before any run."""
     from mjx_skills.methods import check_task
 
     with pytest.raises(ValueError, match="not shown to run yet"):

@@ -117,8 +117,8 @@ def edit_for_mjx(model: mujoco.MjModel, edits: tuple[ModelEdit, ...] = MJX_EDITS
 
 MJX_UNVERIFIED = (
     "the MJX path of the Fetch tasks is not shown to run yet: with envs.fetch_mjx.MJX_EDITS "
-    "the model loads in mujoco.mjx.put_model, but compiling its scanned env step passed 8 GB "
-    "of memory on a 2-core CPU, and the edits alone move contact episodes away from "
+    "the model loads in mujoco.mjx.put_model, but compiling its scanned env step ran out of "
+    "memory on a CPU machine, and the edits alone move contact episodes away from "
     "gymnasium-robotics' (benchmarks/results/fetch_mjx_parity.jsonl); use physics='native'"
 )
 """Why the scenes MJX loads (reach, push, pick_and_place) are refused on MJX for now
