@@ -218,8 +218,7 @@ class TrainConfig:
     def __post_init__(self) -> None:
         check_numbers(self)
         _check(bool(self.task), "task", "must name an env")
-        for name in ("seed", "seeds"):  # the field that alone passes the limit is named
-            _check(getattr(self, name) < SEED_LIMIT, name, "must be < 2**32 (32-bit keys)")
+        _check(self.seeds < SEED_LIMIT, "seeds", "must be < 2**32 (32-bit keys)")
         _check(self.seed + self.seeds <= SEED_LIMIT, "seed", "seed + seeds over 2**32 (keys)")
         for name in ("epochs", "seeds", "envs", "cycles", "eval_episodes", "checkpoint_every",
                      "updates_per_cycle", "replay_capacity"):  # fmt: skip
@@ -261,8 +260,7 @@ class LibraryConfig:
     classifier_lr: float = 1e-3
     """Adam learning rate of the classifier (thesis: 1e-4)."""
     fit_batch: int = 256
-    """Samples per gradient step of the fits (at most the training split: a smaller split is
-    one batch)."""
+    """Samples per gradient step of the fits (a smaller training split is one batch)."""
     fit_epochs: int = 60
     """Most passes over the training split (early stopping after `patience`, best kept)."""
     patience: int = 8
