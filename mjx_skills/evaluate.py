@@ -121,8 +121,9 @@ def check_gym_supports(method: str, task: str) -> None:
 
     if task in FETCH:
         raise UnsupportedOnGym(
-            f"{task} is not served by the gym adapter (it hosts the Baxter envs); use "
-            "--physics native"
+            f"{task}: --physics gym replays the Baxter adapter's episodes in its own mj_step "
+            "loop; the Fetch adapter (MjxSkills/Fetch*-v0) steps the JAX env itself, so "
+            "--physics native evaluates the same physics: use it"
         )
     if method not in FLAT_METHODS:
         raise UnsupportedOnGym(

@@ -207,6 +207,17 @@ def test_a_method_the_benchmark_does_not_measure_costs_what_its_stored_cells_too
         cost.estimate(exp, jobs=1, rows=[], store=tmp_path / "empty")
 
 
+def test_the_estimate_says_the_jobs_it_models():
+    """One cell gets one worker whatever --jobs asks: the summary line says the same as the
+    JSON line under it."""
+    from mjx_skills.sweeps import cost
+    from mjx_skills.sweeps.experiments import adhoc
+
+    text = cost.report(adhoc("one", ("transit",), ("ddpg_her",)), jobs=4)
+    summary, est = text.splitlines()[-2], json.loads(text.splitlines()[-1])
+    assert est["jobs"] == 1 and f"--jobs {est['jobs']} (" in summary, summary
+
+
 def test_cells_run_as_ray_tasks(tmp_path):
     ray = pytest.importorskip("ray")
     exp = _tiny(epochs=1, seeds=1)

@@ -103,12 +103,12 @@ def check_task(
     explorer, which drives no library skill, so that nothing would be cloned. A task of
     another robot than the library's is refused (`check_library_robot`); a Fetch task runs
     with an env config it can honour."""
-    from mjx_skills.envs.registry import ENVS, FETCH, check_name
+    from mjx_skills.envs.registry import ENVS, check_name
 
     check_name(task)
     check_library_robot(method, task, options)
-    if task in FETCH:
-        FETCH[task].check_config(env or EnvConfig())
+    if hasattr(ENVS[task], "check_config"):  # a task of another robot than Baxter's scenes
+        ENVS[task].check_config(env or EnvConfig())
         return
     cubes = ENVS[task].n_objects
     options = options or {}
@@ -156,7 +156,8 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     if built_for == robot:
         return
     flag = f"--{group}.library-dir"
-    said = f"the skill library is built for the {built_for.capitalize()} robot ({directory})"
+    built = "is built" if manifest.exists() else "would be built (none there yet)"
+    said = f"the skill library {built} for the {built_for.capitalize()} robot ({directory})"
     if robot in SKILL_ROBOTS:
         raise ValueError(
             f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run with "

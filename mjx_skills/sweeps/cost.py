@@ -191,6 +191,6 @@ def report(exp: Experiment, jobs: int) -> str:
     est = estimate(exp, jobs)
     lines = [f"{name:50s} {s / 60:6.1f} min" for name, s in est["cells"].items()]
     lines.append(f"{exp.name}: {len(est['cells'])} cells, {est['wall_s'] / 3600:.2f} h with "
-                 f"--jobs {jobs} ({est['cores_per_job']} core(s) each; "
+                 f"--jobs {est['jobs']} ({est['cores_per_job']} core(s) each; "
                  f"{est['serial_s'] / 3600:.2f} h of cell time)")  # fmt: skip
     return "\n".join([*lines, json.dumps(est)])
