@@ -33,7 +33,13 @@ from mjx_skills.core.learner import Learner
 from mjx_skills.core.precision import require_float32, use_float32
 from mjx_skills.envs.registry import make
 from mjx_skills.training.checkpoint import Checkpoints
-from mjx_skills.training.epoch import init_carry, make_evaluate, over_seeds, seed_keys
+from mjx_skills.training.epoch import (
+    compiler_options,
+    init_carry,
+    make_evaluate,
+    over_seeds,
+    seed_keys,
+)
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, load_config
 
@@ -106,7 +112,10 @@ def evaluate_jax(run: TrainedRun, key: jax.Array, episodes: int) -> tuple[np.nda
     train = dataclasses.replace(run.args.train, eval_episodes=episodes)
     evaluate = make_evaluate(run.learner, run.env, train)
     # aux (the library) is an argument, not a constant baked into the program, as in training.
-    metrics = jax.jit(over_seeds(evaluate, in_axes=(0, None, None)))(run.agents, run.aux, key)
+    program = jax.jit(
+        over_seeds(evaluate, in_axes=(0, None, None)), compiler_options=compiler_options(run.env)
+    )
+    metrics = program(run.agents, run.aux, key)
     return np.asarray(metrics["eval_success"]), np.asarray(metrics["eval_distance"])
 
 

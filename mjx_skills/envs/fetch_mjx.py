@@ -11,9 +11,8 @@ against the native backend on the unedited model by `benchmarks/fetch_mjx_parity
 (`benchmarks/results/fetch_mjx_parity.jsonl`) and bounded by `tests/test_fetch_mjx.py`.
 
 A scene MJX cannot run even with the edits is in `MJX_REFUSALS` with MJX's own reason: Slide,
-whose puck is a cylinder, and MJX has no cylinder-mesh collision. The other three load, but
-their MJX path is not yet shown to compile and run (`MJX_UNVERIFIED`): the tasks refuse
-physics='mjx' for now and 'auto' is native everywhere.
+whose puck is a cylinder, and MJX has no cylinder-mesh collision. The other three run on MJX
+when asked (physics='mjx'); 'auto' is native everywhere until a device measures the path.
 """
 
 from __future__ import annotations
@@ -115,25 +114,31 @@ def edit_for_mjx(model: mujoco.MjModel, edits: tuple[ModelEdit, ...] = MJX_EDITS
     return edited
 
 
-MJX_UNVERIFIED = (
-    "the MJX path of the Fetch tasks is not shown to run yet: with envs.fetch_mjx.MJX_EDITS "
-    "the model loads in mujoco.mjx.put_model, but compiling its scanned env step ran out of "
-    "memory on a CPU machine, and the edits alone move contact episodes away from "
-    "gymnasium-robotics' (benchmarks/results/fetch_mjx_parity.jsonl); use physics='native'"
+MJX_RUN_REFUSAL = (
+    "training or evaluating a Fetch task on MJX is not possible yet: the env step compiles "
+    "and runs on MJX (benchmarks/fetch_mjx_parity.py, with fetch_mjx.MJX_COMPILER_OPTIONS), "
+    "but compiling a training epoch around it ran out of memory on a CPU machine; use "
+    "--physics native"
 )
-"""Why the scenes MJX loads (reach, push, pick_and_place) are refused on MJX for now
-(`benchmarks/fetch_mjx_parity.py` measures the path; `fetch_backend` builds it)."""
+"""Why `train` and `evaluate` refuse physics='mjx' on the Fetch scenes MJX loads."""
 
 
 def resolve_physics(scene: str, physics: str, device: str | None = None) -> str:
-    """'native' for `physics` ('native' or 'auto') in any Fetch scene; ValueError for 'mjx'
-    with the reason: MJX's own for a scene it cannot load (`MJX_REFUSALS`), otherwise
-    `MJX_UNVERIFIED`. `device` (default JAX's backend) does not change the answer yet: 'auto'
-    is native on every device until the MJX path is measured."""
+    """`physics` ('native', 'mjx' or 'auto') resolved for `scene`: 'auto' is native on every
+    device (`device`, unused until the MJX path is measured on one); ValueError for 'mjx' in
+    a scene MJX cannot load, with MJX's reason (`MJX_REFUSALS`)."""
     del device
-    if physics == "mjx":
-        raise ValueError(MJX_REFUSALS.get(scene, MJX_UNVERIFIED))
+    if physics == "mjx" and scene in MJX_REFUSALS:
+        raise ValueError(MJX_REFUSALS[scene])
     return "native" if physics == "auto" else physics
+
+
+MJX_COMPILER_OPTIONS = {"xla_disable_hlo_passes": "while-loop-invariant-code-motion"}
+"""XLA options of every program that steps the Fetch model on MJX. With XLA's while-loop
+invariant code motion, compiling even a `lax.scan` of two `mjx.step`s of the edited model
+grew past 9 GB on a CPU (a bare step: under 1.5 GB); without that one pass the env step's
+scan of 20 substeps compiles like a bare step. Measured by hand (scan of 2 and 20 steps,
+each pass disabled alone); only the Fetch MJX programs get it, so Baxter's are unchanged."""
 
 
 def fetch_backend(
@@ -143,7 +148,9 @@ def fetch_backend(
     the model as it is, or MJX on `edit_for_mjx(model)` (`physics` resolved: 'native' or
     'mjx'). The backend's `model` is the model it steps."""
     if physics == "mjx":
-        return MjxBackend(edit_for_mjx(model), mocap_quat=True)
+        backend = MjxBackend(edit_for_mjx(model), mocap_quat=True)
+        backend.compiler_options = MJX_COMPILER_OPTIONS
+        return backend
     return NativeBackend(model, n_threads, mocap_quat=True)
 
 
@@ -191,7 +198,10 @@ def lockstep(envs: dict, key: jax.Array, n_envs: int, n_steps: int) -> dict[str,
         _, traj = jax.lax.scan(body, states, actions)
         return record(states), traj
 
-    start, traj = jax.jit(run)(k_start, actions)
+    options = {}
+    for env in envs.values():
+        options.update(env.backend.compiler_options or {})
+    start, traj = jax.jit(run, compiler_options=options or None)(k_start, actions)
     out = {}
     for name in envs:
         obs, qpos, resets = (

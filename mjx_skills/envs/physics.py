@@ -83,6 +83,10 @@ class PhysicsBackend(Protocol):
 class MjxBackend:
     """MJX: the whole step is traced into the caller's XLA program."""
 
+    compiler_options: dict[str, str] | None = None
+    """XLA options every program stepping this backend is compiled with (`jax.jit(...,
+    compiler_options=...)`; None: XLA's defaults)."""
+
     name = "mjx"
 
     def __init__(self, model: mujoco.MjModel, mocap_quat: bool = False):
@@ -182,6 +186,10 @@ class NativeBackend:
     crosses the boundary as float32 (JAX's default dtype); rounding a position to float32
     moves it by less than a micrometre.
     """
+
+    compiler_options: dict[str, str] | None = None
+    """XLA options every program stepping this backend is compiled with (`jax.jit(...,
+    compiler_options=...)`; None: XLA's defaults)."""
 
     name = "native"
 

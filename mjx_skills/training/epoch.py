@@ -228,9 +228,19 @@ def _build_program(spec: methods.Method, train: TrainConfig, env_cfg: EnvConfig,
     eval_env = env if eval_cfg == env_cfg else make(train.task, eval_cfg)
     learner = spec.make_learner(env, train, **options)
     epoch = over_seeds(make_train_epoch(learner, env, train, eval_env), in_axes=(0, None))
-    epoch_fn = jax.jit(epoch, donate_argnums=0)
-    init = jax.jit(jax.vmap(lambda k, aux: init_carry(learner, env, train, k, aux), (0, None)))
+    options = compiler_options(env)
+    epoch_fn = jax.jit(epoch, donate_argnums=0, compiler_options=options)
+    init = jax.jit(
+        jax.vmap(lambda k, aux: init_carry(learner, env, train, k, aux), (0, None)),
+        compiler_options=options,
+    )
     return env, learner, epoch_fn, init
+
+
+def compiler_options(env) -> dict[str, str] | None:
+    """The XLA options the env's physics backend asks its programs to be compiled with
+    (`PhysicsBackend.compiler_options`; None for XLA's defaults)."""
+    return getattr(getattr(env, "backend", None), "compiler_options", None)
 
 
 def over_seeds(fn, in_axes=0):
