@@ -60,10 +60,6 @@ class SkillsArgs:
     `--anchor start` library beside the default one."""
 
 
-def _epochs(name: str, config: LibraryConfig) -> int:
-    return getattr(config, f"{name}_epochs")
-
-
 def _latest_run(work: Path, name: str) -> Path | None:
     runs = sorted((work / name / "ddpg_her").glob("*/config.json")) if work.exists() else []
     return runs[-1].parent if runs else None
@@ -74,7 +70,7 @@ def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
     held = config.grasp_held_start_prob if name == "grasp" else 0.0
     previous = _latest_run(work, name)
     args = RunArgs(
-        train=TrainConfig(task=name, epochs=_epochs(name, config), seed=config.seed,
+        train=TrainConfig(task=name, epochs=getattr(config, f"{name}_epochs"), seed=config.seed,
                           replay_capacity=200_000, out=str(work), progress=progress),
         env=EnvConfig(held_start_prob=held),
         resume=str(previous) if previous else None,
@@ -220,7 +216,7 @@ def _position_error_cm(predicted: np.ndarray, actual: np.ndarray, pos: slice) ->
     return float(100 * np.mean(np.linalg.norm(predicted[:, pos] - actual[:, pos], axis=-1)))
 
 
-def build(args: SkillsArgs, work: Path | None = None) -> Path:
+def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
     """Every phase -> the library directory. `work`: where the skills' training runs live
     (default beside the library); libraries sharing it share their trained skills."""
     out = check_writable_path(args.out)
@@ -232,7 +228,8 @@ def build(args: SkillsArgs, work: Path | None = None) -> Path:
         )
     library.remove_partials(out)
     made_by = library.provenance()  # the code as it was loaded, before a long build
-    work = check_writable_path(work or out.with_name(f".{out.name}.work"), "--work")
+    default_work = out.with_name(f".{out.name}.work")
+    work = check_writable_path(default_work if work is None else work, "--work")
     config, timings, success, agents, runs, data = args.config, {}, {}, [], {}, {}
     for name in SKILLS:
         t0 = time.time()
@@ -305,9 +302,7 @@ def main(argv: list[str] | None = None) -> None:
         if args.table:
             print(f"wrote {write_table(Path(args.out))}")
             return
-        out = build(
-            args, work=None if args.work is None else check_writable_path(args.work, "--work")
-        )
+        out = build(args, work=args.work)
         print(json.dumps(library.read_manifest(out)["models"], indent=1))
         print(f"library written to {out}")
     except (ValueError, FileExistsError, FileNotFoundError) as err:

@@ -35,7 +35,13 @@ from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
 from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.types import ObsLayout, SkillEnv
 from mjx_skills.envs.registry import SKILLS, make
-from mjx_skills.skills.provenance import DEFINING, definition_sha256, provenance, stale_reasons
+from mjx_skills.skills.provenance import (
+    check_definition,
+    check_digest,
+    definition_sha256,
+    provenance,
+    stale_reasons,
+)
 from mjx_skills.skills.provenance import scene_files as scene_files  # re-exported
 from mjx_skills.skills.provenance import scenes_digest as scenes_digest  # re-exported
 
@@ -324,31 +330,6 @@ def load(directory: Path) -> tuple[SkillLibrary, dict[str, Any]]:
         raise ValueError(f"{directory}: the library's arrays do not load ({err})") from None
     check_digest(lib, manifest, directory)
     return lib, manifest
-
-
-def check_definition(manifest: dict[str, Any], directory: Path) -> None:
-    """ValueError naming `directory` when the manifest's `DEFINING` fields were edited since
-    the build (its `definition` digest differs; none recorded: not checked)."""
-    if "definition" in manifest and definition_sha256(manifest) != manifest["definition"]:
-        raise ValueError(
-            f"{directory}: manifest.json's {', '.join(DEFINING)} differ from those the "
-            "library was built with (edited since); restore the file or build a library "
-            "with the options wanted"
-        )
-
-
-def check_digest(lib: SkillLibrary, manifest: dict[str, Any], directory: Path) -> None:
-    """ValueError naming `directory` when the restored arrays are not the ones saved (their
-    `tree_sha256` differs from the manifest's `digest`); a library saved before digests
-    were recorded passes with a warning."""
-    if "digest" not in manifest:
-        why = "has no digest of its arrays (built before they were recorded)"
-        log.warning("skill library %s %s: loaded unverified", directory, why)
-    elif tree_sha256(lib) != manifest["digest"]:
-        raise ValueError(
-            f"{directory}: the library's arrays are damaged (their digest differs from the "
-            "manifest's); restore the directory or rebuild it"
-        )
 
 
 def empty_like(

@@ -6,13 +6,17 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import re
 import subprocess
 from pathlib import Path
 from typing import Any
 
 from mjx_skills import __version__
+from mjx_skills.core.files import tree_sha256
 from mjx_skills.envs.baxter import XML_DIR
+
+log = logging.getLogger(__name__)
 
 
 def scene_files() -> list[Path]:
@@ -89,3 +93,28 @@ def definition_sha256(manifest: dict[str, Any]) -> str:
     """SHA-256 of the manifest's `DEFINING` fields as canonical JSON."""
     defining = {k: manifest.get(k) for k in DEFINING}
     return hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()
+
+
+def check_definition(manifest: dict[str, Any], directory: Path) -> None:
+    """ValueError naming `directory` when the manifest's `DEFINING` fields were edited since
+    the build (its `definition` digest differs; none recorded: not checked)."""
+    if "definition" in manifest and definition_sha256(manifest) != manifest["definition"]:
+        raise ValueError(
+            f"{directory}: manifest.json's {', '.join(DEFINING)} differ from those the "
+            "library was built with (edited since); restore the file or build a library "
+            "with the options wanted"
+        )
+
+
+def check_digest(lib: Any, manifest: dict[str, Any], directory: Path) -> None:
+    """ValueError naming `directory` when the restored arrays are not the ones saved (their
+    `tree_sha256` differs from the manifest's `digest`); a library saved before digests
+    were recorded passes with a warning."""
+    if "digest" not in manifest:
+        why = "has no digest of its arrays (built before they were recorded)"
+        log.warning("skill library %s %s: loaded unverified", directory, why)
+    elif tree_sha256(lib) != manifest["digest"]:
+        raise ValueError(
+            f"{directory}: the library's arrays are damaged (their digest differs from the "
+            "manifest's); restore the directory or rebuild it"
+        )
