@@ -113,6 +113,5 @@ def test_reach_on_mjx_follows_the_native_reference():
     found = deviations(out["native"], out["mjx"], native)
     assert found["position"] < bound, (found, bound)
     assert np.abs(out["native"]["obs"] - out["mjx"]["obs"]).max() > 0  # two backends ran
-    for task in ("fetch_reach", "fetch_push", "fetch_pick_and_place"):  # a run: refused
-        with pytest.raises(ValueError, match=r"Fetch\w+: training or evaluating .* on MJX"):
-            check_task("ddpg_her", task, {}, EnvConfig(physics="mjx"))
+    for task in ("fetch_reach", "fetch_push", "fetch_pick_and_place"):  # a run may use MJX
+        check_task("ddpg_her", task, {}, EnvConfig(physics="mjx"))

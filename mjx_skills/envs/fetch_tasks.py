@@ -17,7 +17,7 @@ import jax.numpy as jnp
 from mjx_skills.config import EnvConfig
 from mjx_skills.core.types import State
 from mjx_skills.envs.fetch import FetchRobot
-from mjx_skills.envs.fetch_mjx import MJX_RUN_REFUSAL, resolve_physics
+from mjx_skills.envs.fetch_mjx import resolve_physics
 from mjx_skills.envs.robot import RobotTask
 
 UNUSED_FIELDS = tuple(
@@ -33,11 +33,10 @@ AIR_PROB, AIR_MAX = 0.5, 0.45
 """target_in_the_air: half the goals are lifted by up to 45 cm (`_sample_goal`)."""
 
 
-def refuse_unsupported(task: str, config: EnvConfig, scene: str, run: bool = True) -> None:
+def refuse_unsupported(task: str, config: EnvConfig, scene: str) -> None:
     """ValueError if `config` asks a Fetch task for what it does not do: MJX where MJX cannot
-    run `scene` (`fetch_mjx.MJX_REFUSALS`), a training or evaluation run on MJX (`run`:
-    `fetch_mjx.MJX_RUN_REFUSAL`; the env itself, for the benchmark and the tests, is made),
-    or a field of the Baxter scenes (`UNUSED_FIELDS`) set away from its default."""
+    run `scene` (`fetch_mjx.MJX_REFUSALS`, with MJX's reason) or a field of the Baxter scenes
+    (`UNUSED_FIELDS`) set away from its default."""
     default = EnvConfig()
     for field in UNUSED_FIELDS:
         if getattr(config, field) != getattr(default, field):
@@ -48,8 +47,7 @@ def refuse_unsupported(task: str, config: EnvConfig, scene: str, run: bool = Tru
                 f"{getattr(default, field)!r}"
             )
     try:
-        if resolve_physics(scene, config.physics) == "mjx" and run:
-            raise ValueError(MJX_RUN_REFUSAL)
+        resolve_physics(scene, config.physics)
     except ValueError as refusal:
         raise ValueError(f"{task}: {refusal} (asked: physics={config.physics!r})") from None
 
@@ -84,7 +82,7 @@ class FetchTask(RobotTask):
 
     def __init__(self, config: EnvConfig | None = None):
         self.config = config = config or EnvConfig()
-        refuse_unsupported(type(self).__name__, config, self.scene, run=False)
+        refuse_unsupported(type(self).__name__, config, self.scene)
         self.robot = FetchRobot(
             self.scene,
             self.initial_qpos,
