@@ -6,7 +6,7 @@ committed benchmark results.
 
 Reads benchmarks/results/{epoch_cost,sweep_parallel,search,confirm_estimate,make_train}.jsonl
 and the committed learning curves it names (Speed), {physics,mjx_profile,physics_fetch}.jsonl
-(Physics); every number in either block is computed here (tests/test_package.py checks that
+and fetch_train_epoch.jsonl (Physics, `fetch_epoch_report.py`); every number in either block is computed here (tests/test_package.py checks that
 docs/benchmarks.md holds exactly what this prints).
 """
 
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import runpy
 import sys
 from pathlib import Path
 
@@ -31,6 +32,9 @@ VARIANTS = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS",
             "sl_eps1": "DDPG+HER+SL, eps = 1", "sl_eps0": "DDPG+HER+SL, eps = 0.001",
             "sl_eps1_whole": "... eps = 1, whole batch searched", "oracle": "oracle explorer"}  # fmt: skip
 THESIS_EXPERIMENTS = ("fig6_3", "fig6_4", "fig6_5")
+fetch_train_epoch = runpy.run_path(str(Path(__file__).with_name("fetch_epoch_report.py")))[
+    "fetch_train_epoch"
+]
 
 
 def rows(name: str) -> list[dict]:
@@ -305,7 +309,9 @@ def physics_section() -> str:
         + (", `benchmarks/results/physics_fetch.jsonl`" if physics_fetch() else "")
         + "."
     ]
-    parts = [PHYSICS_BEGIN, *physics_baxter(), *physics_fetch(), "", *raw, PHYSICS_END]
+    epochs = fetch_train_epoch()
+    raw[0] = raw[0][:-1] + (", `benchmarks/results/fetch_train_epoch.jsonl`." if epochs else ".")
+    parts = [PHYSICS_BEGIN, *physics_baxter(), *physics_fetch(), *epochs, "", *raw, PHYSICS_END]
     return "\n".join(parts)
 
 
