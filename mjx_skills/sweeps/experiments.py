@@ -13,6 +13,14 @@ that change a setting keep apart from the default's, which the store would other
     seeds = 3
     epochs = 50
 
+`seed` (default 0) is the cells' first seed, and `role` says what they are for (`tuning`, the
+default, or `headline`: reported as a result, so its seeds must not meet the tuning seeds 0-4;
+`sweeps.seeds`):
+
+    role = "headline"
+    seed = 100
+    seeds = 10
+
 `kind = "library"` (Table 5.1) builds skill libraries instead, one cell per entry of
 `samples`, with optional `[library]` overrides (LibraryConfig fields, e.g. `anchor =
 "goal"`); they share one work directory, so the skills are trained once.
@@ -28,6 +36,8 @@ import tomllib
 import typing
 from pathlib import Path
 from typing import Any
+
+from mjx_skills.sweeps.seeds import ROLES, check_headline_seeds, describe, seed_range
 
 EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 
@@ -53,6 +63,8 @@ class Cell:
     """EnvConfig overrides as (field, value) pairs."""
     label: str = ""
     """Appended to the name: a variant of a cell (e.g. 'single_goal')."""
+    seed: int = 0
+    """The first seed (`sweeps.seeds`): the name says the seeds when it is not 0."""
 
     @property
     def name(self) -> str:
@@ -62,7 +74,10 @@ class Cell:
         lib = f"-{self.library}" if self.library else ""
         preset = "" if self.preset == "default" else f"-{self.preset}"
         label = f"-{self.label}" if self.label else ""
-        return f"{self.task}-{self.method}{lib}{preset}{label}-s{self.seeds}-e{self.epochs}"
+        seeds = f"s{self.seeds}"
+        if self.seed:
+            seeds = "seeds" + describe(seed_range(self.seed, self.seeds))
+        return f"{self.task}-{self.method}{lib}{preset}{label}-{seeds}-e{self.epochs}"
 
     def run_args(self, out: str, progress: bool = True):
         from mjx_skills import methods
@@ -75,8 +90,15 @@ class Cell:
             groups.setdefault(methods.get(self.method).library_group, {})["library"] = self.library
         base = methods.preset_options(self.method, self.preset)
         options = {g: dataclasses.replace(base[g], **groups.get(g, {})) for g in spec.options}
-        train = TrainConfig(task=self.task, epochs=self.epochs, seeds=self.seeds, out=out,
-                            progress=progress, **dict(self.train))  # fmt: skip
+        train = TrainConfig(
+            task=self.task,
+            epochs=self.epochs,
+            seed=self.seed,
+            seeds=self.seeds,
+            out=out,
+            progress=progress,
+            **dict(self.train),
+        )
         return RunArgs(train=train, method=self.method, env=EnvConfig(**dict(self.env)),
                        options=options)  # fmt: skip
 
@@ -103,6 +125,10 @@ class Experiment:
     """EnvConfig overrides of every cell."""
     label: str = ""
     """Ends every cell's name (a variant of the default cells)."""
+    seed: int = 0
+    """The first seed of every cell (seeds `seed` ... `seed + seeds - 1`)."""
+    role: str = "tuning"
+    """`sweeps.seeds.ROLES`: 'headline' cells must not run on a tuning seed."""
 
     def __post_init__(self) -> None:
         from mjx_skills import methods
@@ -132,11 +158,15 @@ class Experiment:
             library_skills(lib)
         if self.seeds < 1 or self.epochs < 1:
             raise ValueError(f"experiment {self.name}: seeds and epochs must be >= 1")
+        self._check_seeds()
         self._check_fields("[env]", self.env, EnvConfig)
         if self.label and not self.label.replace("_", "").isalnum():
             raise ValueError(f"experiment {self.name}: label {self.label!r}: letters, digits, _")
         self._check_fields(
-            "[train]", self.train, TrainConfig, {"task", "epochs", "seeds", "out", "progress"}
+            "[train]",
+            self.train,
+            TrainConfig,
+            {"task", "epochs", "seed", "seeds", "out", "progress"},
         )
         for method, groups in self.options.items():
             if method not in self.methods:
@@ -160,6 +190,17 @@ class Experiment:
                 self._check_fields(f"[options.{method}.{group}]", fields, type(default))
         if self.kind == "train":
             self._check_cells()
+
+    def _check_seeds(self) -> None:
+        """`role` is one of `ROLES`; `seed` is >= 0; a headline's seeds are not tuning seeds."""
+        if self.role not in ROLES:
+            raise ValueError(
+                f"experiment {self.name}: unknown role {self.role!r}; valid: {', '.join(ROLES)}"
+            )
+        if self.seed < 0:
+            raise ValueError(f"experiment {self.name}: seed must be >= 0, got {self.seed}")
+        if self.role == "headline":
+            check_headline_seeds(f"experiment {self.name}", seed_range(self.seed, self.seeds))
 
     def _check_types(self) -> None:
         """Every top-level value has its field's type (`config.checked_value`): `seeds = 3.0`
@@ -274,9 +315,20 @@ class Experiment:
                 opts = tuple((g, tuple(sorted((k, tuple(v) if isinstance(v, list) else v)
                                               for k, v in f.items())))
                              for g, f in sorted(self.options.get(method, {}).items()))  # fmt: skip
-                out.append(Cell(task, method, lib, self.seeds, self.epochs,
-                                tuple(sorted(self.train.items())), opts, preset=self.preset,
-                                env=tuple(sorted(self.env.items())), label=self.label))  # fmt: skip
+                cell = Cell(
+                    task,
+                    method,
+                    lib,
+                    self.seeds,
+                    self.epochs,
+                    tuple(sorted(self.train.items())),
+                    opts,
+                    preset=self.preset,
+                    env=tuple(sorted(self.env.items())),
+                    label=self.label,
+                    seed=self.seed,
+                )
+                out.append(cell)
         return out
 
 
