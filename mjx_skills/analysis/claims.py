@@ -11,11 +11,12 @@ lies entirely above B's.
 from __future__ import annotations
 
 from mjx_skills.analysis.stats import Summary
+from mjx_skills.methods import METHODS
 
 FAILS = 0.1
 LEARNS = 0.5
-LABEL = {"ddpg_her": "DDPG+HER", "pas": "PAS", "mpas": "MPAS", "ddpg_her_sl": "DDPG+HER+SL",
-         "ddpg_her_sl_bc": "DDPG+HER+SL+BC", "ddpg_her_sl_fast": "DDPG+HER+SL+Fast"}  # fmt: skip
+LABEL = {name: spec.label for name, spec in METHODS.items()}
+"""Each method's label, in the registry's order (the figures' colours follow it)."""
 THESIS_METHODS = ("ddpg_her", "pas", "mpas", "ddpg_her_sl")
 """The four methods the thesis compares (Fig. 6.3), in its order."""
 
