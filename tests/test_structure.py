@@ -83,7 +83,7 @@ def _layer(module: str) -> int:
         return -1
     if parts[1] in LAYERS:
         return LAYERS.index(parts[1])
-    return len(LAYERS)  # a command: train, build_library, sweep, evaluate, render, report
+    return len(LAYERS)  # a command: train, build_library, sweep, evaluate, render
 
 
 def test_layers_import_one_way():
@@ -96,7 +96,7 @@ def test_layers_import_one_way():
     assert not upward, "imports against the layers: " + ", ".join(upward)
     commands = {m for m in paths if _layer(m) == len(LAYERS)}
     assert commands == {f"mjx_skills.{c}" for c in ("train", "build_library", "sweep", "evaluate",
-                                                     "render", "report", "cli_args")}  # fmt: skip
+                                                     "render", "cli_args")}  # fmt: skip
 
 
 def test_only_envs_know_the_observation_offsets():

@@ -65,8 +65,13 @@ def claims(r) -> list[list[str]]:
 
     for cid, task in (("C1", "pick_move"), ("C2", "put_in_container"), ("C3", "put_on")):
         s = g3(task, "ddpg_her")
-        claim(cid, f"DDPG+HER fails {task}", [s], lambda s=s: f"last 5: {ci(s.last)}",
-              lambda s=s: "matched" if fails(s) else "short")  # fmt: skip
+        claim(
+            cid,
+            f"DDPG+HER fails {task}",
+            [s],
+            lambda s=s: f"last 5: {ci(s.last)}",
+            lambda s=s: "matched" if fails(s) else "short",
+        )
     d, others = (
         g3("take_out", "ddpg_her"),
         [g3("take_out", m) for m in ("pas", "mpas", "ddpg_her_sl")],
@@ -75,59 +80,114 @@ def claims(r) -> list[list[str]]:
     if d is not None and not learns(d):  # short whatever the others do
         out.append(["C4", c4, f"last 5: {ci(d.last)}", "short"])
     else:
-        claim("C4", c4, [d, *others],
-              lambda: f"last 5: {ci(d.last)}; mean over epochs {ci(d.auc)} vs "
-                      + ", ".join(f"{LABEL[m]} {ci(o.auc)}" for m, o in zip(("pas", "mpas", "ddpg_her_sl"), others, strict=True)),
-              lambda: "matched" if all(above(o, d) for o in others) else "short")  # fmt: skip
+        claim(
+            "C4",
+            c4,
+            [d, *others],
+            lambda: (
+                f"last 5: {ci(d.last)}; mean over epochs {ci(d.auc)} vs "
+                + ", ".join(
+                    f"{LABEL[m]} {ci(o.auc)}"
+                    for m, o in zip(("pas", "mpas", "ddpg_her_sl"), others, strict=True)
+                )
+            ),
+            lambda: "matched" if all(above(o, d) for o in others) else "short",
+        )
     for task in ("pick_move", "put_in_container"):
         p, d = g3(task, "pas"), g3(task, "ddpg_her")
-        claim("C5", f"PAS learns {task}", [p, d], lambda p=p: f"last 5: {ci(p.last)}",
-              lambda p=p, d=d: "matched" if learns(p, d) else "short")  # fmt: skip
+        claim(
+            "C5",
+            f"PAS learns {task}",
+            [p, d],
+            lambda p=p: f"last 5: {ci(p.last)}",
+            lambda p=p, d=d: "matched" if learns(p, d) else "short",
+        )
     m, p = g3("take_out", "mpas"), g3("take_out", "pas")
-    claim("C6", "MPAS learns faster than PAS (take_out)", [m, p],
-          lambda: f"mean over epochs: MPAS {ci(m.auc)}, PAS {ci(p.auc)}",
-          lambda: "matched" if above(m, p) else "short")  # fmt: skip
+    claim(
+        "C6",
+        "MPAS learns faster than PAS (take_out)",
+        [m, p],
+        lambda: f"mean over epochs: MPAS {ci(m.auc)}, PAS {ci(p.auc)}",
+        lambda: "matched" if above(m, p) else "short",
+    )
     put_on = {k: g3("put_on", k) for k in THESIS_METHODS}
-    claim("C7", "put_on: every method learns; PAS and MPAS converge to about 0.8",
-          list(put_on.values()),
-          lambda: ", ".join(f"{LABEL[k]} {ci(s.last)}" for k, s in put_on.items()),
-          lambda: ("short" if not all(learns(s) for s in put_on.values()) else
-                   "beaten" if min(put_on["pas"].last[0], put_on["mpas"].last[0]) > 0.9 else
-                   "matched"))  # fmt: skip
+    claim(
+        "C7",
+        "put_on: every method learns; PAS and MPAS converge to about 0.8",
+        list(put_on.values()),
+        lambda: ", ".join(f"{LABEL[k]} {ci(s.last)}" for k, s in put_on.items()),
+        lambda: (
+            "short"
+            if not all(learns(s) for s in put_on.values())
+            else "beaten"
+            if min(put_on["pas"].last[0], put_on["mpas"].last[0]) > 0.9
+            else "matched"
+        ),
+    )
     for task in ("pick_move", "put_in_container"):
         s, d = g3(task, "ddpg_her_sl"), g3(task, "ddpg_her")
-        claim("C8", f"DDPG+HER+SL learns {task} and converges to 1.0 (here: last 5 >= 0.95)", [s, d],
-              lambda s=s: f"last 5: {ci(s.last)}; 0.9 at epoch {reach(s.reach_90)}",
-              lambda s=s, d=d: "matched" if learns(s, d) and s.last[0] >= 0.95 else "short")  # fmt: skip
+        claim(
+            "C8",
+            f"DDPG+HER+SL learns {task} and converges to 1.0 (here: last 5 >= 0.95)",
+            [s, d],
+            lambda s=s: f"last 5: {ci(s.last)}; 0.9 at epoch {reach(s.reach_90)}",
+            lambda s=s, d=d: "matched" if learns(s, d) and s.last[0] >= 0.95 else "short",
+        )
     s, p, m = g3("put_on", "ddpg_her_sl"), g3("put_on", "pas"), g3("put_on", "mpas")
-    claim("C9", "DDPG+HER+SL beats PAS and MPAS on put_on", [s, p, m],
-          lambda: f"last 5: SL {ci(s.last)}, PAS {ci(p.last)}, MPAS {ci(m.last)}",
-          lambda: "matched" if above(s, p, "last") and above(s, m, "last") else "short")  # fmt: skip
+    claim(
+        "C9",
+        "DDPG+HER+SL beats PAS and MPAS on put_on",
+        [s, p, m],
+        lambda: f"last 5: SL {ci(s.last)}, PAS {ci(p.last)}, MPAS {ci(m.last)}",
+        lambda: "matched" if above(s, p, "last") and above(s, m, "last") else "short",
+    )
     g4 = lambda task, lib: r.get("fig6_4", task, "ddpg_her_sl", lib)  # noqa: E731
     a, b = g4("pick_move", "SL1"), g4("pick_move", "SL2")
-    claim("C10", "SL1 learns pick_move faster than SL2", [a, b],
-          lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL2 {ci(b.auc)}",
-          lambda: "matched" if above(a, b) else "short")  # fmt: skip
+    claim(
+        "C10",
+        "SL1 learns pick_move faster than SL2",
+        [a, b],
+        lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL2 {ci(b.auc)}",
+        lambda: "matched" if above(a, b) else "short",
+    )
     a, b = g4("put_in_container", "SL1"), g4("put_in_container", "SL2")
-    claim("C11", "SL2 is not slower than SL1 on put_in_container", [a, b],
-          lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL2 {ci(b.auc)}",
-          lambda: "short" if above(a, b) else "matched")  # fmt: skip
+    claim(
+        "C11",
+        "SL2 is not slower than SL1 on put_in_container",
+        [a, b],
+        lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL2 {ci(b.auc)}",
+        lambda: "short" if above(a, b) else "matched",
+    )
     a, c = g4("put_in_container", "SL1"), g4("put_in_container", "SL3")
     d = g3("put_in_container", "ddpg_her")
-    claim("C12", "SL3 learns put_in_container, slower than SL1 (it converges)", [a, c, d],
-          lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL3 {ci(c.auc)}; SL3 last 5: {ci(c.last)}",
-          lambda: "matched" if learns(c, d) and above(a, c) else "short")  # fmt: skip
-    reduced = [(t, lib, g4(t, lib), g3(t, "ddpg_her")) for t in ("pick_move", "put_in_container")
-               for lib in ("SL2", "SL3")]  # fmt: skip
-    claim("C13", "a reduced library (SL2, SL3) beats DDPG+HER",
-          [x for row in reduced for x in row[2:]],
-          lambda: ", ".join(f"{t} {lib} {ci(s.last)}" for t, lib, s, _ in reduced),
-          lambda: "matched" if all(learns(s, d) for *_, s, d in reduced) else "short")  # fmt: skip
+    claim(
+        "C12",
+        "SL3 learns put_in_container, slower than SL1 (it converges)",
+        [a, c, d],
+        lambda: f"mean over epochs: SL1 {ci(a.auc)}, SL3 {ci(c.auc)}; SL3 last 5: {ci(c.last)}",
+        lambda: "matched" if learns(c, d) and above(a, c) else "short",
+    )
+    reduced = [
+        (t, lib, g4(t, lib), g3(t, "ddpg_her"))
+        for t in ("pick_move", "put_in_container")
+        for lib in ("SL2", "SL3")
+    ]
+    claim(
+        "C13",
+        "a reduced library (SL2, SL3) beats DDPG+HER",
+        [x for row in reduced for x in row[2:]],
+        lambda: ", ".join(f"{t} {lib} {ci(s.last)}" for t, lib, s, _ in reduced),
+        lambda: "matched" if all(learns(s, d) for *_, s, d in reduced) else "short",
+    )
     s, d = (
         r.get("fig6_5", "container_wall", "ddpg_her_sl"),
         r.get("fig6_5", "container_wall", "ddpg_her"),
     )
-    claim("C14", "container_wall: DDPG+HER+SL learns, DDPG+HER fails", [s, d],
-          lambda: f"last 5: SL {ci(s.last)}, DDPG+HER {ci(d.last)}",
-          lambda: "matched" if learns(s, d) and fails(d) else "short")  # fmt: skip
+    claim(
+        "C14",
+        "container_wall: DDPG+HER+SL learns, DDPG+HER fails",
+        [s, d],
+        lambda: f"last 5: SL {ci(s.last)}, DDPG+HER {ci(d.last)}",
+        lambda: "matched" if learns(s, d) and fails(d) else "short",
+    )
     return out
