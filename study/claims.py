@@ -1,6 +1,6 @@
 """The thesis's chapter 6 claims (C1-C14) as verdicts on our data.
 
-Each claim reads the summaries of the cells it is about (`report.Results`) and gets
+Each claim reads the summaries of the cells it is about (`results.Results`) and gets
 'matched' (our data shows it), 'beaten' (it shows more), 'short' (it does not) or, while
 a cell is missing, 'not run yet'. The rules: a method *learns* a task when its last-5
 mean is >= LEARNS and its interval lies entirely above DDPG+HER's there; it *fails* when

@@ -164,7 +164,7 @@ def _holds(r, experiment: str, task: str) -> bool:
 
 def faster(r) -> list[str]:
     """The targets table: DDPG+HER+SL, the oracle explorer, DDPG+HER+SL+Fast's first default,
-    the `CANDIDATES`, and today's default (`TODAY`), from `report.Results` r; 'met' is
+    the `CANDIDATES`, and today's default (`TODAY`), from `results.Results` r; 'met' is
     today's."""
     rows = []
     for task, by in TARGETS:

@@ -12,6 +12,7 @@ from study.results import Results
 
 
 def table(header: list[str], rows: list[list[str]]) -> list[str]:
+    """A markdown table's lines."""
     return [
         "| " + " | ".join(header) + " |",
         "|" + "---|" * len(header),

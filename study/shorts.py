@@ -30,7 +30,7 @@ def _tried(variant: stats.Summary | None, default: stats.Summary, held: bool = F
 
 def shorts(r) -> list[str]:
     """The shorts the thesis does not share, with what the logs say about why, from
-    `report.Results` r."""
+    `results.Results` r."""
     out = []
     cell, d = r.find("fig6_3", "take_out", "ddpg_her")
     if d is not None and not learns(d):

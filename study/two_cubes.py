@@ -78,7 +78,7 @@ def explored(r, cell, epochs: int = 5) -> float:
 
 
 def rows(r) -> list[list[str]]:
-    """One row per cell of the grid, from `report.Results` r."""
+    """One row per cell of the grid, from `results.Results` r."""
     out = []
     for experiment in EXPERIMENTS:
         for cell, s in r.cells[experiment]:
