@@ -30,6 +30,20 @@ def reach(epoch: int | None) -> str:
     return "never" if epoch is None else str(epoch)
 
 
+MEASURED = [
+    "seeds x epochs",
+    "last 5 epochs [95 % CI]",
+    "0.9 at epoch",
+    "mean over epochs [95 % CI]",
+]
+"""The headers of `measured`'s columns."""
+
+
+def measured(s: Summary) -> list[str]:
+    """A cell's columns: seeds x epochs, last 5 epochs, 0.9 at epoch, mean over epochs."""
+    return [f"{s.seeds} x {s.epochs}", ci(s.last), reach(s.reach_90), ci(s.auc)]
+
+
 def learns(s: Summary, baseline: Summary | None = None) -> bool:
     """Last-5 mean >= 0.5 and (beside a baseline) its interval entirely above the baseline's."""
     return s.last[0] >= LEARNS and (baseline is None or s.last[1] > baseline.last[2])

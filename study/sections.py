@@ -7,7 +7,7 @@ from pathlib import Path
 
 from mjx_skills.sweeps.experiments import Cell
 from study import faster, two_cubes
-from study.claims import LABEL, ci, compare, reach
+from study.claims import LABEL, MEASURED, ci, compare, measured, reach
 from study.results import Results
 
 
@@ -109,29 +109,11 @@ def cell_rows(r: Results, experiment: str) -> list[list[str]]:
         if s is None:
             rows.append([cell.task, name, "not run yet", "", "", "", ""])
             continue
-        rows.append(
-            [
-                cell.task,
-                name,
-                f"{s.seeds} x {s.epochs}",
-                ci(s.last),
-                reach(s.reach_90),
-                ci(s.auc),
-                f"{s.wall_s / 60:.0f}",
-            ]
-        )
+        rows.append([cell.task, name, *measured(s), f"{s.wall_s / 60:.0f}"])
     return rows
 
 
-CELL_HEADER = [
-    "task",
-    "method",
-    "seeds x epochs",
-    "last 5 epochs [95 % CI]",
-    "0.9 at epoch",
-    "mean over epochs [95 % CI]",
-    "min",
-]
+CELL_HEADER = ["task", "method", *MEASURED, "min"]
 
 
 VARIANTS = {

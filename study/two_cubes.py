@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from mjx_skills.analysis import stats
-from study.claims import LABEL, ci, reach
+from study.claims import LABEL, MEASURED, ci, measured
 
 EXPERIMENT = "two_objects"
 FAST = "two_objects_fast"
@@ -53,10 +53,7 @@ NEAR_ZERO = 0.1
 HEADER = [
     "task",
     "method",
-    "seeds x epochs",
-    "last 5 epochs [95 % CI]",
-    "0.9 at epoch",
-    "mean over epochs [95 % CI]",
+    *MEASURED,
     "cubes at their goals, last 5 [95 % CI]",
     "training success, first 5 epochs",
     "min",
@@ -97,10 +94,7 @@ def _row(r, cell, s, name: str) -> list[str]:
     return [
         cell.task,
         name,
-        f"{s.seeds} x {s.epochs}",
-        ci(s.last),
-        reach(s.reach_90),
-        ci(s.auc),
+        *measured(s),
         ci(cubes(r, cell).last),
         f"{explored(r, cell):.2f}",
         f"{s.wall_s / 60:.0f}",
