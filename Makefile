@@ -11,7 +11,7 @@ SEEDS   ?= 1
 OUT     ?= runs
 ARGS    ?=
 
-.PHONY: setup train skills sweep bench bench-peer test test-fast lint notebook clean
+.PHONY: setup train skills sweep report bench bench-peer test test-fast lint notebook clean
 
 setup: $(STAMP)
 
@@ -33,6 +33,10 @@ skills: setup
 # The thesis's experiments: make sweep ARGS="--experiment fig6_3" (see --list).
 sweep: setup
 	$(BIN)/python -m mjx_skills.sweep $(ARGS)
+
+# docs/results.md, its figures and the README's table from the stored cells (the study, study/).
+report: setup
+	$(BIN)/python -m study.report $(ARGS)
 
 bench: setup
 	$(BIN)/python benchmarks/physics.py

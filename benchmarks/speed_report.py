@@ -18,7 +18,7 @@ import runpy
 import sys
 from pathlib import Path
 
-from mjx_skills.analysis.claims import LABEL
+from mjx_skills.methods import METHODS
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -130,7 +130,7 @@ def first_epochs(name: str) -> list[str]:
                                           f"{name}.jsonl").open()]  # fmt: skip
     first = {r["method"]: r["wall_s"] for r in rows
              if r["task"] == "pick_move" and r["epoch"] == 1 and r["seed"] == 0}  # fmt: skip
-    cells = "; ".join(f"{label} {first[m]:.0f} s" for m, label in LABEL.items() if m in first)
+    cells = "; ".join(f"{s.label} {first[m]:.0f} s" for m, s in METHODS.items() if m in first)
     return [f"Seconds to the end of epoch 1 (tracing, compiling, the first epoch; `wall_s` of "
             f"epoch 1, 5 seeds, two cells at once): {cells}. Every cell compiles its own "
             f"epoch: JAX's persistent cache does not store programs with host callbacks (the "

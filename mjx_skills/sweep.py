@@ -1,11 +1,11 @@
 """Sweeps: the thesis's experiments (and ad-hoc grids) as cells of training runs.
 
     python -m mjx_skills.sweep --experiment smoke
-    python -m mjx_skills.sweep --experiment fig6_3 --seeds 3 --epochs 50
+    python -m mjx_skills.sweep --experiment NAME --seeds 3 --epochs 50  # experiments/NAME.toml
     python -m mjx_skills.sweep --tasks pick_move take_out --methods pas mpas --seeds 3
-    python -m mjx_skills.sweep --experiment fig6_3 --jobs 1           # one cell at a time
-    python -m mjx_skills.sweep --experiment fig6_3 --estimate         # wall time, no training
-    python -m mjx_skills.sweep --experiment fig6_3 --ray local        # cells as Ray tasks
+    python -m mjx_skills.sweep --experiment NAME --jobs 1             # one cell at a time
+    python -m mjx_skills.sweep --experiment NAME --estimate           # wall time, no training
+    python -m mjx_skills.sweep --experiment NAME --ray local          # cells as Ray tasks
     python -m mjx_skills.sweep --list
 
 An experiment is a small TOML file in experiments/ (`experiments/NAME.toml`, read by

@@ -57,9 +57,9 @@ def _cited(text: str):
     for m in re.finditer(r"(?<![\w./-])((?:[\w.-]+/)+[\w-]+\.(?:py|toml|md|ipynb|xml))\b", text):
         if not re.search(r"\b[A-Z][A-Z_]+\b", m.group(1)):  # not a placeholder (NAME, RUN_DIR)
             yield "path", m.group(1)
-    for m in re.finditer(r"python -m (mjx_skills(?:\.\w+)+)", text):
+    for m in re.finditer(r"python -m ((?:mjx_skills|study)(?:\.\w+)+)", text):
         yield "command", m.group(1)
-    for m in re.finditer(r"\bmjx_skills(?:\.\w+)+", text):
+    for m in re.finditer(r"\b(?:mjx_skills|study)(?:\.\w+)+", text):
         yield "name", m.group(0)
 
 
@@ -87,8 +87,8 @@ def _resolves(name: str) -> bool:
 
 def test_the_docs_cite_only_what_exists():
     """README, docs/, pyproject.toml and the Makefile: every relative link and file path
-    exists (paths inside the package may omit `mjx_skills/`), every `mjx_skills.*` name
-    imports and every `python -m` command is a runnable module."""
+    exists (paths inside the package may omit `mjx_skills/`), every `mjx_skills.*` and
+    `study.*` name imports and every `python -m` command is a runnable module."""
     import importlib.util
     from pathlib import Path
 

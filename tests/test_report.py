@@ -1,11 +1,11 @@
-"""The results report: its statistics on known curves, its verdict rules, and the committed
-docs/results.md is exactly what the committed data gives."""
+"""The results report (study/): its statistics on known curves, its verdict rules, and the
+committed docs/results.md is exactly what the committed data gives."""
 
 import numpy as np
 import pytest
 
-from mjx_skills import report
-from mjx_skills.analysis import claims, stats
+from mjx_skills.analysis import stats
+from study import claims, report
 
 
 def test_first_reaching_uses_the_rolling_mean_not_a_single_epoch():
@@ -50,7 +50,7 @@ def test_a_resumed_runs_wall_time_adds_up_the_stretches_of_each_process():
 def test_the_lowest_seed_is_judged_over_its_own_last_epochs_of_the_budget():
     """container_wall's floor: each seed's mean over its last 10 epochs (of the first `upto`),
     and the lowest of those; one stuck seed decides it, whatever the others do."""
-    from mjx_skills.analysis.faster import seed_minimum
+    from study.faster import seed_minimum
 
     learns = [0.0] * 10 + [1.0] * 20  # seed 0: learns at epoch 11
     late = [0.0] * 25 + [1.0] * 5  # seed 1: only its last 5 epochs succeed
@@ -110,12 +110,12 @@ def test_verdict_rules():
 
 
 def test_the_committed_report_is_what_the_committed_data_gives():
-    """`python -m mjx_skills.report --check`: any hand edit or stale number fails."""
+    """`python -m study.report --check`: any hand edit or stale number fails."""
     report.main(["--check"])
 
 
 def test_the_two_cube_bar_needs_a_library_method_high_and_ddpg_her_near_zero():
-    from mjx_skills.analysis import two_cubes
+    from study import two_cubes
 
     class Fake:
         def __init__(self, **last):
@@ -149,7 +149,7 @@ def test_the_paired_comparison_differences_each_seeds_last_five_and_checks_the_t
     critic losses); cells holding other seeds are refused rather than paired by position."""
     import types
 
-    from mjx_skills.analysis import faster
+    from study import faster
 
     def rows(curves, losses):
         return [{"seed": s, "epoch": e + 1, "eval_success": v, "critic_loss": losses[s]}

@@ -31,6 +31,8 @@ from mjx_skills.methods.pas import make_pas
 @dataclasses.dataclass(frozen=True)
 class Method:
     name: str
+    label: str
+    """The method's name in tables and figures (e.g. "DDPG+HER+SL")."""
     description: str
     options: dict[str, Any]
     """Option groups of this method by CLI prefix, with their defaults (frozen dataclasses)."""
@@ -192,15 +194,42 @@ def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
                              f"leave {flag} at its default {getattr(default, field)!r}")  # fmt: skip
 
 
+def _pas(name: str, label: str, description: str) -> Method:
+    """PAS or MPAS: one meta-controller over the skill library, with or without hindsight."""
+    return Method(
+        name=name,
+        label=label,
+        description=description,
+        options={"ddpg": DDPGConfig(), "pas": PASConfig(hindsight=name == "mpas")},
+        make_learner=make_pas,
+        unread=PAS_UNREAD,
+        unread_unless={"pas.relabel_prob": "hindsight"},
+    )
+
+
 METHODS: dict[str, Method] = {
     "ddpg_her": Method(
         name="ddpg_her",
+        label="DDPG+HER",
         description="flat DDPG + HER from scratch (thesis baseline 1)",
         options={"ddpg": DDPGConfig()},
         make_learner=make_ddpg_her,
     ),
+    "pas": _pas(
+        "pas",
+        "PAS",
+        "parameterized-action-space DDPG meta-controller over the skill library, no hindsight "
+        "(thesis baseline 2)",
+    ),
+    "mpas": _pas(
+        "mpas",
+        "MPAS",
+        "multi-goal PAS: the meta-controller with hindsight relabelling at the skill level "
+        "(thesis approach 1, ch. 4)",
+    ),
     "ddpg_her_sl": Method(
         name="ddpg_her_sl",
+        label="DDPG+HER+SL",
         description="DDPG + HER exploring with a look-ahead search over the skill library "
         "(thesis ch. 5)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig()},
@@ -208,6 +237,7 @@ METHODS: dict[str, Method] = {
     ),
     "ddpg_her_sl_bc": Method(
         name="ddpg_her_sl_bc",
+        label="DDPG+HER+SL+BC",
         description="DDPG+HER+SL whose actor also clones the explorer's skills where the "
         "critic agrees (Q-filtered behaviour cloning; beyond the thesis)",
         options={"ddpg": DDPGConfig(), "search": SearchConfig(), "bc": BCConfig()},
@@ -215,6 +245,7 @@ METHODS: dict[str, Method] = {
     ),
     "ddpg_her_sl_fast": Method(
         name="ddpg_her_sl_fast",
+        label="DDPG+HER+SL+Fast",
         description="DDPG+HER+SL made to learn faster: wider networks, more updates, a "
         "shorter explorer decay, the critic picking among the library's proposals, averaged "
         "networks evaluated (beyond the thesis)",
@@ -224,29 +255,9 @@ METHODS: dict[str, Method] = {
         unread_unless={"fast.proposals": "pick", "fast.pick_in_training": "pick"},
         earlier={"fast": {"pick_in_training": True, "eval_average": 0.0}},
     ),
-    **{
-        name: Method(
-            name=name,
-            description=description,
-            options={"ddpg": DDPGConfig(), "pas": PASConfig(hindsight=name == "mpas")},
-            make_learner=make_pas,
-            unread=PAS_UNREAD,
-            unread_unless={"pas.relabel_prob": "hindsight"},
-        )
-        for name, description in (
-            (
-                "pas",
-                "parameterized-action-space DDPG meta-controller over the skill library, "
-                "no hindsight (thesis baseline 2)",
-            ),
-            (
-                "mpas",
-                "multi-goal PAS: the meta-controller with hindsight relabelling at the "
-                "skill level (thesis approach 1, ch. 4)",
-            ),
-        )
-    },
 }
+"""Every method by name, in the thesis's order (its two baselines, its approach 1 and its
+approach 2, Fig. 6.3's order), then those beyond it: tables and figures list them so."""
 
 
 THESIS_LIBRARY = "experiments/skill_library_thesis"

@@ -32,7 +32,8 @@ report's ablations remove one at a time:
   after each cycle, while training goes on with the online networks (`Averaged`).
 
 The defaults are the measured best on the targets (docs/results.md); the first and second
-defaults stay reachable by their options (experiments/fast_first.toml, fast.toml).
+defaults stay reachable by their options (the experiments that ran them: docs/results.md,
+the DDPG+HER+SL+Fast section).
 """
 
 from __future__ import annotations

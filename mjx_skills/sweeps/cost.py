@@ -1,6 +1,6 @@
 """Expected wall time of a sweep, from the epoch costs `benchmarks/epoch_cost.py` measured.
 
-    python -m mjx_skills.sweep --experiment fig6_3 --epochs 100 --seeds 5 --estimate
+    python -m mjx_skills.sweep --experiment NAME --epochs 100 --seeds 5 --estimate
 
 The model, per cell (task, method, seeds, epochs):
 - an epoch costs what `benchmarks/epoch_cost.py` measured for the method on pick_move at that number

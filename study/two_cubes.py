@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from mjx_skills.analysis import stats
-from mjx_skills.analysis.claims import LABEL, ci, reach
+from study.claims import LABEL, MEASURED, ci, measured
 
 EXPERIMENT = "two_objects"
 FAST = "two_objects_fast"
@@ -50,9 +50,14 @@ INTRO = (
 NEAR_ZERO = 0.1
 """DDPG+HER 'stays near 0' below this last-5 mean (the report's 'fails' rule)."""
 
-HEADER = ["task", "method", "seeds x epochs", "last 5 epochs [95 % CI]", "0.9 at epoch",
-          "mean over epochs [95 % CI]", "cubes at their goals, last 5 [95 % CI]",
-          "training success, first 5 epochs", "min"]  # fmt: skip
+HEADER = [
+    "task",
+    "method",
+    *MEASURED,
+    "cubes at their goals, last 5 [95 % CI]",
+    "training success, first 5 epochs",
+    "min",
+]
 
 
 def cubes(r, cell) -> stats.Summary:
@@ -70,7 +75,7 @@ def explored(r, cell, epochs: int = 5) -> float:
 
 
 def rows(r) -> list[list[str]]:
-    """One row per cell of the grid, from `report.Results` r."""
+    """One row per cell of the grid, from `results.Results` r."""
     out = []
     for experiment in EXPERIMENTS:
         for cell, s in r.cells[experiment]:
@@ -86,15 +91,25 @@ def _name(method: str, experiment: str) -> str:
 def _row(r, cell, s, name: str) -> list[str]:
     if s is None:
         return [cell.task, name, "not run yet", "", "", "", "", "", ""]
-    return [cell.task, name, f"{s.seeds} x {s.epochs}", ci(s.last), reach(s.reach_90), ci(s.auc),
-            ci(cubes(r, cell).last), f"{explored(r, cell):.2f}", f"{s.wall_s / 60:.0f}"]  # fmt: skip
+    return [
+        cell.task,
+        name,
+        *measured(s),
+        ci(cubes(r, cell).last),
+        f"{explored(r, cell):.2f}",
+        f"{s.wall_s / 60:.0f}",
+    ]
 
 
 def dashed(r, task: str) -> list[tuple]:
     """The figure's dashed curves on `task`: (cell, summary, variant, True) of every cell of
     DDPG+HER+SL+Fast's experiments (each variant gets its own colour)."""
-    return [(c, s, VARIANTS.get(e, ""), True)
-            for e in EXPERIMENTS[1:] for c, s in r.cells[e] if c.task == task]  # fmt: skip
+    return [
+        (c, s, VARIANTS.get(e, ""), True)
+        for e in EXPERIMENTS[1:]
+        for c, s in r.cells[e]
+        if c.task == task
+    ]
 
 
 def colour(variant: str) -> int:
@@ -123,13 +138,17 @@ def verdict(r) -> list[str]:
     flat = r.get(EXPERIMENT, task, "ddpg_her")
     done = _runs(r, task, methods)
     if flat is None or not done:
-        return [f"The bar on {task} (last 5 >= {level} for {' or '.join(LABEL[m] for m in methods)}"
-                ", DDPG+HER near 0): not all its cells are run yet."]  # fmt: skip
+        return [
+            f"The bar on {task} (last 5 >= {level} for {' or '.join(LABEL[m] for m in methods)}"
+            ", DDPG+HER near 0): not all its cells are run yet."
+        ]
     _, best, s = max(done, key=lambda run: run[2].last[0])
     met = s.last[0] >= level and flat.last[0] < NEAR_ZERO
     missing = [LABEL[m] for m in methods if m not in {method for method, _, _ in done}]
     later = f" ({', '.join(missing)}: not run yet)" if missing else ""
-    return [f"The bar on {task}: last 5 >= {level} for "
-            f"{' or '.join(LABEL[m] for m in methods)} while DDPG+HER stays below {NEAR_ZERO}. "
-            f"Best: {best}, {ci(s.last)}; DDPG+HER {ci(flat.last)}: "
-            f"**{'met' if met else 'not met'}**{later}."]  # fmt: skip
+    return [
+        f"The bar on {task}: last 5 >= {level} for "
+        f"{' or '.join(LABEL[m] for m in methods)} while DDPG+HER stays below {NEAR_ZERO}. "
+        f"Best: {best}, {ci(s.last)}; DDPG+HER {ci(flat.last)}: "
+        f"**{'met' if met else 'not met'}**{later}."
+    ]

@@ -4,17 +4,20 @@ experiments say about why: the report's "shorts" section, computed from the stor
 from __future__ import annotations
 
 from mjx_skills.analysis import stats
-from mjx_skills.analysis.claims import above, ci, learns
+from study.claims import above, ci, learns
 
 
 def _tried(variant: stats.Summary | None, default: stats.Summary, held: bool = False) -> str:
     """What the experiment that tests the explanation showed (empty while it is not run)."""
     if variant is None:
         return ""
-    what = ("With half of the training episodes starting with the cube closed in the fingers "
-            "(`take_out_held`: the HER paper's trick; evaluation as before)" if held else
-            "With the thesis's single goal (`pas_single_goal`: every episode's goal is the mean "
-            "of pick_move's goal distribution, trained and evaluated on it)")  # fmt: skip
+    what = (
+        "With half of the training episodes starting with the cube closed in the fingers "
+        "(`take_out_held`: the HER paper's trick; evaluation as before)"
+        if held
+        else "With the thesis's single goal (`pas_single_goal`: every episode's goal is the mean "
+        "of pick_move's goal distribution, trained and evaluated on it)"
+    )
     if above(variant, default, "last"):
         verdict = f"it learns: last 5 epochs {ci(variant.last)}" + (
             f", 0.9 first reached (5-epoch rolling mean) at epoch {variant.reach_90}"
@@ -27,7 +30,7 @@ def _tried(variant: stats.Summary | None, default: stats.Summary, held: bool = F
 
 def shorts(r) -> list[str]:
     """The shorts the thesis does not share, with what the logs say about why, from
-    `report.Results` r."""
+    `results.Results` r."""
     out = []
     cell, d = r.find("fig6_3", "take_out", "ddpg_her")
     if d is not None and not learns(d):
@@ -41,7 +44,8 @@ def shorts(r) -> list[str]:
             "(`mjx_skills/envs/tasks.py`, TakeOut; the thesis says only 'on the top of the container'), "
             "so reaching it takes a grasp and a lift that random exploration did not find in "
             f"100 epochs.{_tried(r.get('take_out_held', 'take_out', 'ddpg_her'), d, held=True)}"
-            f"{_held_note(r)}")  # fmt: skip
+            f"{_held_note(r)}"
+        )
     for task in ("pick_move", "put_in_container"):
         p, m = r.get("fig6_3", task, "pas"), r.get("fig6_3", task, "mpas")
         if p is None or m is None or learns(p, r.get("fig6_3", task, "ddpg_her")):
@@ -54,7 +58,8 @@ def shorts(r) -> list[str]:
             f"only {won:.1%} of its training episodes ended at the task's goal, the only reward "
             "PAS learns from: without hindsight its critic sees almost no success. MPAS, the "
             "same meta-controller with hindsight at the skill level, learns from every "
-            f"episode.{_tried(r.get('pas_single_goal', task, 'pas'), p) if task == 'pick_move' else ''}")  # fmt: skip
+            f"episode.{_tried(r.get('pas_single_goal', task, 'pas'), p) if task == 'pick_move' else ''}"
+        )
     out += _without_grasp(r)
     cell, s = r.find("fig6_5", "container_wall", "ddpg_her_sl")
     flat = r.get("fig6_5", "container_wall", "ddpg_her")
@@ -72,16 +77,22 @@ def shorts(r) -> list[str]:
             "still learning when the budget ends. The coarse models were learned without the "
             "wall, so the search plans through it until the stall memory prunes those paths "
             "([methods](methods.md)); the learner improves late, from its own relabelled episodes, "
-            "after eps has decayed.")  # fmt: skip
+            "after eps has decayed."
+        )
     return out or ["The shorts are stated once their cells are in."]
 
 
 def _without_grasp(r) -> list[str]:
     """SL3 (transit, transfer): why it does not learn, from its logs at eps = 1."""
-    found = [(task, *r.find("fig6_4", task, "ddpg_her_sl", "SL3")) for task in
-             ("pick_move", "put_in_container")]  # fmt: skip
-    found = [(t, c, s) for t, c, s in found if s is not None
-             and not learns(s, r.get("fig6_3", t, "ddpg_her"))]  # fmt: skip
+    found = [
+        (task, *r.find("fig6_4", task, "ddpg_her_sl", "SL3"))
+        for task in ("pick_move", "put_in_container")
+    ]
+    found = [
+        (t, c, s)
+        for t, c, s in found
+        if s is not None and not learns(s, r.get("fig6_3", t, "ddpg_her"))
+    ]
     if not found:
         return []
     parts = []
@@ -91,8 +102,10 @@ def _without_grasp(r) -> list[str]:
             m["explore_searches"] for m in first
         )
         won = r.mean_of("fig6_4", task, "ddpg_her_sl", "train_success", "SL3")
-        parts.append(f"{task} {ci(s.last)} (at eps = 1 every edge was pruned in {pruned:.0%} of "
-                     f"the searches; {won:.1%} of all training episodes succeeded)")  # fmt: skip
+        parts.append(
+            f"{task} {ci(s.last)} (at eps = 1 every edge was pruned in {pruned:.0%} of "
+            f"the searches; {won:.1%} of all training episodes succeeded)"
+        )
     return [
         "- **DDPG+HER+SL with SL3 = {transit, transfer}** (the thesis: slower than SL1, but it "
         f"learns): last 5 epochs {'; '.join(parts)}. Transfer starts only with the cube in "

@@ -1,0 +1,189 @@
+"""The report's tables: Table 5.1, the thesis preset, an experiment's cells, and a variant's
+cells beside the cells they are compared with."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mjx_skills.sweeps.experiments import Cell
+from study import faster, two_cubes
+from study.claims import LABEL, MEASURED, ci, compare, measured, reach
+from study.results import Results
+
+
+def table(header: list[str], rows: list[list[str]]) -> list[str]:
+    """A markdown table's lines."""
+    return [
+        "| " + " | ".join(header) + " |",
+        "|" + "---|" * len(header),
+        *["| " + " | ".join(r) + " |" for r in rows],
+    ]
+
+
+def table5_1() -> list[str]:
+    """Table 5.1 from the committed libraries' manifests (the default and the thesis's)."""
+    from mjx_skills.build_library import THESIS_CM
+    from mjx_skills.methods import THESIS_LIBRARY
+    from mjx_skills.skills.library import read_manifest
+
+    libs = [("default", Path("experiments/skill_library")), ("thesis preset", Path(THESIS_LIBRARY))]
+    rows, found = [], []
+    for label, path in libs:
+        if not (path / "manifest.json").exists():
+            continue
+        m = read_manifest(path)
+        found.append((label, m))
+        for name, e in m["models"].items():
+            rows.append(
+                [
+                    name,
+                    f"{label} ({m['library']['anchor']})",
+                    f"{m['samples'][name]['total']:,}",
+                    f"{e['memory_error_cm']:.2f}",
+                    f"{THESIS_CM[name][0]:.1f}",
+                    f"{e['model_error_cm']:.2f}",
+                    f"{THESIS_CM[name][1]:.1f}",
+                    f"{e['classifier_auc']:.3f}",
+                    f"{m['skill_success'][name]:.3f}",
+                ]
+            )
+    if not found:
+        return ["No skill library built yet (`make skills`)."]
+    lines = table(
+        [
+            "skill",
+            "library (anchor)",
+            "runs",
+            "memory cm",
+            "thesis",
+            "model cm",
+            "thesis",
+            "classifier AUC",
+            "skill success",
+        ],
+        rows,
+    )
+    label, m = found[0]
+    ours = {n: (e["memory_error_cm"], e["model_error_cm"]) for n, e in m["models"].items()}
+    beaten = [
+        n for n, (mem, mod) in ours.items() if mem < THESIS_CM[n][0] and mod < THESIS_CM[n][1]
+    ]
+    net = all(mod < mem for mem, mod in ours.values())
+    verdict = "beaten" if len(beaten) == len(ours) else "short"
+    lines += [
+        "",
+        f"**C15** (the {label} library): both errors below the thesis's for "
+        f"{len(beaten)} of {len(ours)} skills ({', '.join(beaten) or 'none'}): **{verdict}**; "
+        f"the network beats memory for every skill: **{'matched' if net else 'short'}**. "
+        "Errors are the mean terminal-position error (grip for transit, cube for grasp "
+        "and transfer) on the held-out 10 % of successful runs.",
+    ]
+    return lines
+
+
+def presets() -> list[str]:
+    """The thesis preset field by field, and what it changes (from methods.PRESETS)."""
+    from mjx_skills.config import LibraryConfig
+    from mjx_skills.methods import PRESETS, preset_options
+
+    rows = [["library", "anchor", f"`{LibraryConfig().anchor}`", "`start`"]]
+    for method, groups in PRESETS["thesis"].items():
+        default = preset_options(method)
+        for group, fields in groups.items():
+            for field, value in fields.items():
+                rows.append(
+                    [
+                        LABEL[method],
+                        f"`--{group}.{field.replace('_', '-')}`",
+                        f"`{getattr(default[group], field)}`",
+                        f"`{value}`",
+                    ]
+                )
+    return table(["method", "option", "default", "`--preset thesis`"], rows)
+
+
+def cell_rows(r: Results, experiment: str) -> list[list[str]]:
+    rows = []
+    for cell, s in r.cells[experiment]:
+        name = LABEL[cell.method] + (f" {cell.library}" if experiment == "fig6_4" else "")
+        if s is None:
+            rows.append([cell.task, name, "not run yet", "", "", "", ""])
+            continue
+        rows.append([cell.task, name, *measured(s), f"{s.wall_s / 60:.0f}"])
+    return rows
+
+
+CELL_HEADER = ["task", "method", *MEASURED, "min"]
+
+
+VARIANTS = {
+    "thesis_preset": ("thesis preset", None),
+    "pas_single_goal": ("single goal", None),
+    "take_out_held": ("held starts", None),
+    "oracle": ("oracle explorer", None),
+    "bc": ("", "ddpg_her_sl"),
+    "bc_weight": ("weight 10", "ddpg_her_sl"),
+    "fast": ("second default", "ddpg_her_sl"),
+    **{e: (f"without {why}", base) for e, _, base, why in faster.ABLATION_CELLS},
+}
+"""Experiments compared cell by cell with another's: (their cells' tag, what they are
+compared with: Fig. 6.3's (Fig. 6.5's) cell of that method (None: the same method), or an
+experiment's name: its cell of the same task and method)."""
+
+
+def baseline(r: Results, experiment: str, cell: Cell):
+    """(The cell a variant cell is compared with, its summary or None)."""
+    against = VARIANTS[experiment][1]
+    if against in r.cells:
+        return r.find(against, cell.task, cell.method)
+    for figure in ("fig6_3", "fig6_5"):
+        try:
+            return r.find(figure, cell.task, against or cell.method)
+        except KeyError:
+            continue
+    raise KeyError((experiment, cell.task, against or cell.method))
+
+
+def variant_rows(r: Results, experiment: str) -> list[list[str]]:
+    rows = []
+    tag = VARIANTS[experiment][0]
+    for cell, variant in r.cells[experiment]:
+        base_cell, base = baseline(r, experiment, cell)
+        same = base_cell.method == cell.method and not base_cell.label
+        names = (
+            LABEL[base_cell.method] + (", default" if same else ""),
+            LABEL[cell.method] + (f", {tag}" if tag else ""),
+        )
+        if base and variant and base.epochs > variant.epochs:  # compared over the same epochs
+            base = r.first_epochs(base_cell, base, variant.epochs)
+            names = (f"{names[0]}, its first {variant.epochs} epochs", names[1])
+        for name, s in zip(names, (base, variant), strict=True):
+            first = s is base and variant is not None
+            rows.append(
+                [
+                    cell.task,
+                    name,
+                    *([ci(s.last), reach(s.reach_90), ci(s.auc)] if s else ["not run yet", "", ""]),
+                    *(
+                        [compare(base, variant, f, names) for f in ("last", "auc")]
+                        if first
+                        else ["", ""]
+                    ),
+                ]
+            )
+    return rows
+
+
+TITLES = {
+    "fig6_3": "Fig. 6.3: four tasks, four methods",
+    "fig6_4": "Fig. 6.4: reduced libraries (DDPG+HER+SL)",
+    "fig6_5": "Fig. 6.5: a container behind a wall the skills never saw",
+    "thesis_preset": "Our defaults against the thesis's formulation (`--preset thesis`)",
+    "pas_single_goal": "Why PAS falls short on pick_move: PAS with the thesis's single goal",
+    "take_out_held": "Why DDPG+HER falls short on take_out: half the starts with the cube in hand",
+    "oracle": "The upper bound of exploration: DDPG+HER with the scripted controllers as its explorer",
+    "bc": "Beyond the thesis: DDPG+HER+SL+BC, the explorer's skills cloned where the critic agrees",
+    "bc_weight": "DDPG+HER+SL+BC with ten times the cloning weight",
+    **faster.TITLES,
+    two_cubes.EXPERIMENT: two_cubes.TITLE,
+}
