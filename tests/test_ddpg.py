@@ -97,6 +97,35 @@ def test_soft_target_update(setup):
         assert max(jax.tree.leaves(moved)) > 1e-5
 
 
+def test_targets_move_once_per_cycle_as_the_her_baselines(setup):
+    """target_update='cycle': the three gradient steps of a call learn against the targets
+    the call started with (the first step's TD targets are the same as with 'step', later
+    ones differ), and only then do the targets move once by tau towards the online nets."""
+    state, batch, _ = setup
+    state, _ = ddpg.update(state, jax.tree.map(lambda x: x[None], batch), CONFIG)  # lagging
+    batches = jax.tree.map(
+        lambda *xs: jnp.stack(xs), *(make_batch(jax.random.key(k)) for k in range(3))
+    )
+    cycle = dataclasses.replace(CONFIG, target_update="cycle")
+    per_step, m_step = ddpg.update(state, batches, CONFIG)
+    per_cycle, m_cycle = ddpg.update(state, batches, cycle)
+    np.testing.assert_allclose(m_cycle["critic_loss"][0], m_step["critic_loss"][0], rtol=1e-6)
+    assert abs(float(m_cycle["critic_loss"][2]) - float(m_step["critic_loss"][2])) > 1e-7
+    tau = CONFIG.tau
+    for target, online in (
+        ("target_actor_params", "actor_params"),
+        ("target_critic_params", "critic_params"),
+    ):
+        once = jax.tree.map(
+            lambda t, p: (1 - tau) * np.asarray(t) + tau * np.asarray(p),
+            getattr(state, target),
+            getattr(per_cycle, online),
+        )
+        chex.assert_trees_all_close(getattr(per_cycle, target), once, rtol=1e-6, atol=1e-7)
+        gap = jax.tree.map(lambda a, b: jnp.max(jnp.abs(a - b)), getattr(per_step, target), once)
+        assert max(jax.tree.leaves(gap)) > 1e-6  # per step, the targets moved otherwise
+
+
 def test_td_target_clipped(setup):
     state, batch, _ = setup
     # Push the target critic's output bias far up and down: targets must stay in range.

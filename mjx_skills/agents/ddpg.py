@@ -239,7 +239,26 @@ def update(
     """
     nbatches = normalize_batch(state, batches, config)
     step = lambda s, nbatch: _step(s, nbatch, config, bc_weight)  # noqa: E731
-    return jax.lax.scan(step, state, nbatches)
+    state, metrics = jax.lax.scan(step, state, nbatches)
+    return cycle_targets(state, config), metrics
+
+
+def soft_targets(state: DDPGState, config: DDPGConfig) -> DDPGState:
+    """The targets moved towards the online networks by `config.tau`."""
+    return state.replace(
+        target_actor_params=optim.soft_update(
+            state.target_actor_params, state.actor_params, config.tau
+        ),
+        target_critic_params=optim.soft_update(
+            state.target_critic_params, state.critic_params, config.tau
+        ),
+    )
+
+
+def cycle_targets(state: DDPGState, config: DDPGConfig) -> DDPGState:
+    """After a cycle's gradient steps: the targets moved once where `config.target_update`
+    is 'cycle' (the steps left them), else `state` as it is (each step moved them)."""
+    return soft_targets(state, config) if config.target_update == "cycle" else state
 
 
 def td_loss(q: jax.Array, y: jax.Array) -> jax.Array:
@@ -327,16 +346,14 @@ def advance(
     critic_opt_state: optax.OptState,
     config: DDPGConfig,
 ) -> DDPGState:
-    """The state after one gradient step: new networks and optimiser states, targets moved
-    by Polyak averaging, the step counted."""
-    return state.replace(
+    """The state after one gradient step: new networks and optimiser states, the step
+    counted, and the targets moved by Polyak averaging where `config.target_update` is
+    'step' (else after the cycle: `cycle_targets`)."""
+    state = state.replace(
         actor_params=actor_params,
         critic_params=critic_params,
-        target_actor_params=optim.soft_update(state.target_actor_params, actor_params, config.tau),
-        target_critic_params=optim.soft_update(
-            state.target_critic_params, critic_params, config.tau
-        ),
         actor_opt_state=actor_opt_state,
         critic_opt_state=critic_opt_state,
         steps=state.steps + 1,
     )
+    return soft_targets(state, config) if config.target_update == "step" else state

@@ -145,7 +145,8 @@ def update(
     nbatches = {**ddpg.normalize_batch(state, batches, config),
                 **{k: batches[k] for k in ("allowed", "next_allowed")},
                 "raw_obs": batches["obs"], "raw_next_obs": batches["next_obs"]}  # fmt: skip
-    return jax.lax.scan(lambda s, nb: _step(s, nb, goals, config), state, nbatches)
+    state, metrics = jax.lax.scan(lambda s, nb: _step(s, nb, goals, config), state, nbatches)
+    return ddpg.cycle_targets(state, config), metrics
 
 
 def _step(state: ddpg.DDPGState, nb, goals: SkillGoals, config: DDPGConfig):
