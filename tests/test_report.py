@@ -177,3 +177,23 @@ def test_the_paired_comparison_differences_each_seeds_last_five_and_checks_the_t
     metrics["a"] = [m for m in metrics["a"] if m["seed"] != 2]
     with pytest.raises(ValueError, match="other seeds"):
         faster.paired(Fake())
+
+
+def test_published_figures_carry_their_sources():
+    """study/published/fetch_her.toml: every figure names its source, a link to the plot it
+    was read from and that repository's commit, the env with its version, the method and its
+    setting, and a level and env steps that can be set beside ours."""
+    import re
+    import tomllib
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "study" / "published" / "fetch_her.toml"
+    figures = tomllib.loads(path.read_text())["figure"]
+    assert figures
+    for f in figures:
+        keys = {"source", "url", "commit", "env", "method", "setting", "level", "env_steps"}
+        assert set(f) == keys, f
+        assert f["url"].startswith("https://github.com/") and f["url"].endswith(".png")
+        assert re.fullmatch(r"[0-9a-f]{7,40}", f["commit"])
+        assert re.fullmatch(r"Fetch(Reach|Push|Slide|PickAndPlace)-v\d", f["env"])
+        assert 0 < f["level"] <= 1 and 0 < f["env_steps"] <= 10_000_000
