@@ -111,3 +111,25 @@ def test_a_tilde_run_is_written_whole_under_the_home_directory(tmp_path, monkeyp
     names = {p.name for p in run_dir.iterdir()}
     assert {"config.json", "metrics.jsonl", "checkpoints"} <= names
     assert not (tmp_path / "~").exists()
+
+
+def test_the_committed_library_is_found_from_another_working_directory(tmp_path, monkeypatch):
+    """The options name the committed skill library relative to the checkout: from any other
+    working directory it is still found (it was "no skill library at
+    experiments/skill_library"), and a library of that name in the working directory wins."""
+    from mjx_skills import methods
+    from mjx_skills.config import SearchConfig
+    from mjx_skills.core.paths import CHECKOUT
+    from mjx_skills.skills.library import read_manifest
+
+    default = SearchConfig().library_dir
+    assert not default.startswith("/")  # named relative, as the stored cells record it
+    committed = read_manifest(CHECKOUT / default)
+    monkeypatch.chdir(tmp_path)
+    assert read_manifest(default) == committed
+    methods.check_library_robot("ddpg_her_sl", "pick_move")  # reads the committed manifest
+    with pytest.raises(ValueError, match=r"Fetch task.*(Baxter|baxter)"):
+        methods.check_library_robot("ddpg_her_sl", "fetch_push")  # the Baxter library, found
+    (tmp_path / default).mkdir(parents=True)  # the working directory's own, half-written
+    with pytest.raises(ValueError, match="half-written skill library"):
+        read_manifest(default)

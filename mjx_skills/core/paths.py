@@ -10,6 +10,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+CHECKOUT = Path(__file__).resolve().parents[2]
+"""The directory that holds the package: in a source checkout, the one with experiments/."""
+
 REFUSED = "[]\\"
 """Characters orbax reads as glob syntax in a path (spaces, non-ASCII, `%#?*` work)."""
 
@@ -37,3 +40,14 @@ def directory(text: str) -> Path:
     if not text.strip():
         raise ValueError("an empty path")
     return Path(text).expanduser()
+
+
+def in_checkout(path: str | Path) -> Path:
+    """`path` where it is absolute or exists from the working directory; else, a relative
+    path that exists in the checkout (`CHECKOUT`), that one: the committed skill libraries,
+    which the options name relative to the checkout (`experiments/skill_library`), are then
+    found from any working directory. Else `path` as given (its reader says it is missing)."""
+    path = Path(path)
+    if path.is_absolute() or path.exists() or not (CHECKOUT / path).exists():
+        return path
+    return CHECKOUT / path

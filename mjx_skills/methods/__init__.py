@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 from mjx_skills.config import DDPGConfig, EnvConfig, PASConfig, SearchConfig
@@ -144,6 +143,7 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     names the library's robot and how to build one for the task's robot, or says that no
     command builds one yet. Reads only the manifest: nothing is loaded or written."""
     from mjx_skills.core.files import read_json
+    from mjx_skills.core.paths import in_checkout
     from mjx_skills.envs.registry import SKILL_ROBOTS, SKILLS, robot_of
     from mjx_skills.skills.library import library_robot
 
@@ -152,7 +152,7 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     if group is None:
         return
     robot = robot_of(task)
-    directory = Path((options or {}).get(group, spec.options[group]).library_dir)
+    directory = in_checkout((options or {}).get(group, spec.options[group]).library_dir)
     manifest = directory / "manifest.json"
     built_for = library_robot(read_json(manifest)) if manifest.exists() else robot_of(SKILLS[0])
     if built_for == robot:

@@ -32,7 +32,7 @@ from mjx_skills.core.config_io import from_dict
 from mjx_skills.core.files import read_json, tree_sha256, write_json_atomic
 from mjx_skills.core.grouped import apply_per_row, select
 from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
-from mjx_skills.core.paths import check_writable_path
+from mjx_skills.core.paths import check_writable_path, in_checkout
 from mjx_skills.core.types import ObsLayout, SkillEnv
 from mjx_skills.envs.registry import SKILLS, make
 from mjx_skills.skills.provenance import (
@@ -291,7 +291,7 @@ def library_robot(manifest: dict[str, Any]) -> str:
 
 
 def read_manifest(directory: Path) -> dict[str, Any]:
-    directory = Path(directory)
+    directory = in_checkout(directory)
     path = directory / "manifest.json"
     if not directory.exists():
         raise FileNotFoundError(
@@ -315,7 +315,10 @@ def read_manifest(directory: Path) -> dict[str, Any]:
 
 
 def load(directory: Path) -> tuple[SkillLibrary, dict[str, Any]]:
-    """-> (library, manifest). Refuses a missing, half-written or incompatible library."""
+    """-> (library, manifest). Refuses a missing, half-written or incompatible library.
+    A relative `directory` missing from the working directory is read from the checkout
+    (`paths.in_checkout`)."""
+    directory = in_checkout(directory)
     manifest = read_manifest(directory)
     check_writable_path(directory, "the library directory")  # orbax would misread it
     check_definition(manifest, directory)  # before its fields shape what is restored
