@@ -1,21 +1,15 @@
-"""The Fetch training-epoch table of docs/benchmarks.md's "Physics" block, from
+"""The Fetch training-epoch table of docs/benchmarks.md's "Physics" block, from the rows of
 benchmarks/results/fetch_train_epoch.jsonl (`benchmarks/fetch_train_epoch.py`); written by
 `benchmarks/speed_report.py`, which tests/test_package.py checks."""
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
 
-PATH = Path(__file__).resolve().parent / "results" / "fetch_train_epoch.jsonl"
-
-
-def fetch_train_epoch() -> list[str]:
-    """The table's lines (none while no row is committed): per task, each backend's compile,
-    peak memory and epoch, the latest row of each (task, physics)."""
-    if not PATH.exists():
+def fetch_train_epoch(rows: list[dict]) -> list[str]:
+    """The table's lines (none without rows): per task, each backend's compile, peak memory
+    and epoch, the latest row of each (task, physics)."""
+    if not rows:
         return []
-    rows = [json.loads(line) for line in PATH.read_text().splitlines() if line.strip()]
     latest = {(r["task"], r["physics"]): r for r in rows}
     first = rows[0]
     out = [

@@ -6,8 +6,9 @@ committed benchmark results.
 
 Reads benchmarks/results/{epoch_cost,sweep_parallel,search,confirm_estimate,make_train}.jsonl
 and the committed learning curves it names (Speed), {physics,mjx_profile,physics_fetch}.jsonl
-and fetch_train_epoch.jsonl (Physics, `fetch_epoch_report.py`); every number in either block is computed here (tests/test_package.py checks that
-docs/benchmarks.md holds exactly what this prints).
+and fetch_train_epoch.jsonl (Physics, its table by `fetch_epoch_report.py`); every number in
+either block is computed here (tests/test_package.py checks that docs/benchmarks.md holds
+exactly what this prints).
 """
 
 from __future__ import annotations
@@ -304,14 +305,13 @@ def physics_fetch() -> list[str]:
 
 
 def physics_section() -> str:
-    raw = [
-        "Raw rows: `benchmarks/results/physics.jsonl`, `benchmarks/results/mjx_profile.jsonl`"
-        + (", `benchmarks/results/physics_fetch.jsonl`" if physics_fetch() else "")
-        + "."
-    ]
-    epochs = fetch_train_epoch()
-    raw[0] = raw[0][:-1] + (", `benchmarks/results/fetch_train_epoch.jsonl`." if epochs else ".")
-    parts = [PHYSICS_BEGIN, *physics_baxter(), *physics_fetch(), *epochs, "", *raw, PHYSICS_END]
+    fetch = physics_fetch()
+    has_epochs = (RESULTS / "fetch_train_epoch.jsonl").exists()
+    epochs = fetch_train_epoch(rows("fetch_train_epoch")) if has_epochs else []
+    names = ["physics", "mjx_profile", *["physics_fetch"] * bool(fetch)]
+    names += ["fetch_train_epoch"] * bool(epochs)
+    raw = "Raw rows: " + ", ".join(f"`benchmarks/results/{n}.jsonl`" for n in names) + "."
+    parts = [PHYSICS_BEGIN, *physics_baxter(), *fetch, *epochs, "", raw, PHYSICS_END]
     return "\n".join(parts)
 
 

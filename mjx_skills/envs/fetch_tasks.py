@@ -82,7 +82,7 @@ class FetchTask(RobotTask):
 
     def __init__(self, config: EnvConfig | None = None):
         self.config = config = config or EnvConfig()
-        refuse_unsupported(type(self).__name__, config, self.scene)
+        self.check_config(config)
         self.robot = FetchRobot(
             self.scene,
             self.initial_qpos,
@@ -105,8 +105,8 @@ class FetchTask(RobotTask):
 
     @classmethod
     def check_config(cls, config: EnvConfig) -> None:
-        """ValueError if a run of this task cannot honour `config` (`refuse_unsupported`):
-        called before a run writes anything (`methods.check_task`)."""
+        """ValueError if this task cannot honour `config` (`refuse_unsupported`): called
+        before a run writes anything (`methods.check_task`), and again when the env is made."""
         refuse_unsupported(cls.__name__, config, cls.scene)
 
     # ------------------------------------------------------------------ goals
