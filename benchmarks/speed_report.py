@@ -96,11 +96,11 @@ def sweeps() -> list[str]:
     total, serial, one_job, n = 0, 0, 0, 0
     for name in THESIS_EXPERIMENTS:
         exp = load_experiment(name).with_budget(seeds=5, epochs=100)
-        est = cost.estimate(exp, jobs=2, rows=table, cores=2)
+        est = cost.estimate(exp, jobs=2, rows=table, cores=2, from_scratch=True)
         total, serial, n = total + est["wall_s"], serial + est["serial_s"], n + len(est["cells"])
-        one_job += cost.estimate(exp, jobs=1, rows=table, cores=2)["wall_s"]
+        one_job += cost.estimate(exp, jobs=1, rows=table, cores=2, from_scratch=True)["wall_s"]
     out += ["", f"**The thesis's experiments at 100 epochs x 5 seeds** (`python -m mjx_skills.sweep "
-            f"--experiment NAME --epochs 100 --seeds 5 --estimate` for {', '.join(THESIS_EXPERIMENTS)}; "
+            f"--experiment NAME --epochs 100 --seeds 5 --estimate --store EMPTY_DIR` for {', '.join(THESIS_EXPERIMENTS)}; "
             f"{n} cells, 2 at once, each costed as on one core (the `--cores 1` rows of the epoch "
             f"costs): "
             f"estimated **{total / 3600:.1f} h** ({serial / 3600:.1f} h of cell time; with "

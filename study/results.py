@@ -8,7 +8,8 @@ import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.sweeps import cells
-from mjx_skills.sweeps.experiments import Cell, load_experiment
+from mjx_skills.sweeps.cell import Cell
+from mjx_skills.sweeps.experiments import load_experiment
 from mjx_skills.training.metrics_log import wall_seconds
 from study import faster, two_cubes
 

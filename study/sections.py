@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from mjx_skills.sweeps.experiments import Cell
+from mjx_skills.sweeps.cell import Cell
 from study import faster, two_cubes
 from study.claims import LABEL, MEASURED, ci, compare, measured, reach
 from study.results import Results

@@ -15,9 +15,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mjx_skills import sweep
 from mjx_skills.core import files
-from mjx_skills.sweeps import cells
+from mjx_skills.sweeps import cells, local
 from mjx_skills.sweeps.experiments import Experiment
 from mjx_skills.training import metrics_log
 from mjx_skills.training.checkpoint import Checkpoints
@@ -143,8 +142,8 @@ def test_readers_of_a_run_take_its_half_written_log(tmp_path):
     assert [r["epoch"] for r in read_metrics(run_dir)] == [1, 1, 2, 2]
     assert "epoch 2, eval success 0.50" in summary(run_dir)
     cell = types.SimpleNamespace(samples=0, epochs=2, seeds=2)
-    assert sweep.finished(run_dir, cell)
-    assert not sweep.finished(run_dir, types.SimpleNamespace(samples=0, epochs=3, seeds=2))
+    assert local.finished(run_dir, cell)
+    assert not local.finished(run_dir, types.SimpleNamespace(samples=0, epochs=3, seeds=2))
 
 
 def test_resuming_drops_the_half_line_and_appends_whole_ones(tmp_path):

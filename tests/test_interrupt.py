@@ -98,7 +98,7 @@ def test_the_first_signal_is_deferred_and_the_second_stops_at_once():
 def test_a_sweep_stops_at_the_cell_a_signal_stopped(tmp_path, monkeypatch):
     """One cell at a time: a cell that returns unfinished (its run stopped by Ctrl-C and
     saved) ends the sweep there, instead of the next cell starting to train."""
-    from mjx_skills import sweep
+    from mjx_skills.sweeps import local
     from mjx_skills.sweeps.experiments import Experiment
 
     exp = Experiment(
@@ -110,11 +110,11 @@ def test_a_sweep_stops_at_the_cell_a_signal_stopped(tmp_path, monkeypatch):
         epochs=1,
     )
     started = []
-    monkeypatch.setattr(sweep, "run_cell", lambda cell, *a, **k: started.append(cell.name))
+    run_cell = lambda cell, *a, **k: started.append(cell.name)  # returns, never finishing it
     cells = exp.cells()
     with pytest.raises(SystemExit, match="cells not finished"):
-        sweep.run_cells_local(
-            cells, [tmp_path / c.name for c in cells], 1, False, store=tmp_path / "store"
+        local.run_cells_local(
+            run_cell, cells, [tmp_path / c.name for c in cells], 1, False, store=tmp_path / "store"
         )
     assert started == [cells[0].name]
 

@@ -9,6 +9,7 @@ import shutil
 import pytest
 
 from mjx_skills import sweep
+from mjx_skills.sweeps import local
 from mjx_skills.sweeps.experiments import Experiment, load_experiment, names
 from mjx_skills.sweeps.ray_cells import check_ray_address
 from mjx_skills.training.metrics_log import read_metrics
@@ -64,14 +65,16 @@ def finished_sweep(tmp_path_factory):
     cell = exp.cells()[0]
     cell_dir = root / "cells" / cell.name
     first = train_run(cell.run_args(str(cell_dir), progress=False), stop_after=1)
-    paths = sweep.run_sweep(exp, root / "cells", root / "results", progress=False)
+    paths = sweep.run_sweep(
+        exp, root / "cells", root / "results", root / "results" / "cells", progress=False
+    )
     return root, exp, first, paths
 
 
 def test_an_interrupted_cell_resumes_in_its_own_run(finished_sweep):
     root, exp, first, _ = finished_sweep
     cell = exp.cells()[0]
-    assert sweep.cell_run_dir(root / "cells" / cell.name) == first
+    assert local.cell_run_dir(root / "cells" / cell.name) == first
     rows = read_metrics(first)
     assert sorted((r["epoch"], r["seed"]) for r in rows) == [(1, 0), (1, 1), (2, 0), (2, 1)]
 
@@ -92,8 +95,17 @@ def test_a_finished_sweep_skips_its_cells_and_keeps_its_results(finished_sweep):
     root, exp, first, (csv_path, _) = finished_sweep
     before = (first / "metrics.jsonl").read_text()
     with pytest.raises(SystemExit, match="--overwrite"):
-        sweep.run_sweep(exp, root / "cells", root / "results", progress=False)
-    sweep.run_sweep(exp, root / "cells", root / "results", overwrite=True, progress=False)
+        sweep.run_sweep(
+            exp, root / "cells", root / "results", root / "results" / "cells", progress=False
+        )
+    sweep.run_sweep(
+        exp,
+        root / "cells",
+        root / "results",
+        root / "results" / "cells",
+        overwrite=True,
+        progress=False,
+    )
     assert (first / "metrics.jsonl").read_text() == before  # nothing trained again
     assert len(list((root / "cells").iterdir())) == 1
 
@@ -109,14 +121,24 @@ def test_a_stored_cell_is_reused_only_with_the_definition_that_made_it(finished_
     kept = results / "cells" / cell.name
     assert read_metrics(kept) == read_metrics(first)
     assert json.loads((kept / "definition.json").read_text())["config"]["train"]["cycles"] == 2
-    sweep.run_sweep(exp, tmp_path / "fresh", results, overwrite=True, progress=False)
+    sweep.run_sweep(
+        exp, tmp_path / "fresh", results, results / "cells", overwrite=True, progress=False
+    )
     assert not (tmp_path / "fresh").exists()  # nothing trained, no run directory made
     other = dataclasses.replace(exp, train={**TINY, "cycles": 1})
     assert other.cells()[0].name == cell.name
     with pytest.raises(ValueError, match=r"train\.cycles: 2 != 1"):
-        sweep.run_sweep(other, tmp_path / "fresh", results, overwrite=True, progress=False)
+        sweep.run_sweep(
+            other, tmp_path / "fresh", results, results / "cells", overwrite=True, progress=False
+        )
     with pytest.raises(ValueError, match=r"another definition.*train\.cycles"):
-        sweep.run_sweep(other, root / "cells", tmp_path / "elsewhere", progress=False)
+        sweep.run_sweep(
+            other,
+            root / "cells",
+            tmp_path / "elsewhere",
+            tmp_path / "elsewhere" / "cells",
+            progress=False,
+        )
 
 
 def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, tmp_path):
@@ -130,9 +152,9 @@ def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, 
     interrupted = train_run(
         cells[0].run_args(str(tmp_path / "cells" / cells[0].name), progress=False), stop_after=1
     )
-    csv_path, jsonl_path = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results",
+    csv_path, jsonl_path = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results", tmp_path / "results" / "cells",
                                            progress=False, jobs=2, pin=True)  # fmt: skip
-    run_dirs = [sweep.cell_run_dir(tmp_path / "cells" / c.name) for c in cells]
+    run_dirs = [local.cell_run_dir(tmp_path / "cells" / c.name) for c in cells]
     assert run_dirs[0] == interrupted and len(set(run_dirs)) == 2
     for run_dir in run_dirs:
         rows = read_metrics(run_dir)
@@ -222,7 +244,7 @@ def test_cells_run_as_ray_tasks(tmp_path):
     ray = pytest.importorskip("ray")
     exp = _tiny(epochs=1, seeds=1)
     try:
-        csv_path, _ = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results",
+        csv_path, _ = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results", tmp_path / "results" / "cells",
                                       ray_address="local", progress=False)  # fmt: skip
     finally:
         ray.shutdown()
@@ -235,7 +257,7 @@ def test_the_table_experiment_builds_one_library_per_data_size(tmp_path):
     cells = table.cells()
     assert [c.samples for c in cells] == list(table.samples) and len(cells) >= 2
     assert len({c.name for c in cells}) == len(cells)
-    assert not sweep.finished(sweep.cell_run_dir(tmp_path / cells[0].name), cells[0])
+    assert not local.finished(local.cell_run_dir(tmp_path / cells[0].name), cells[0])
     with pytest.raises(ValueError, match="samples"):
         Experiment(name="t", description="", kind="library")
     with pytest.raises(ValueError, match="valid: train, library"):
@@ -307,18 +329,26 @@ def test_a_longer_budget_trains_on_from_the_shorter_cells_run(finished_sweep, tm
     before = (first / "metrics.jsonl").read_text()
     longer = dataclasses.replace(exp, epochs=3)
     cell = longer.cells()[0]
-    sweep.run_sweep(longer, sweep_dir, tmp_path / "results", progress=False)
-    run = sweep.cell_run_dir(sweep_dir / cell.name)
+    sweep.run_sweep(
+        longer, sweep_dir, tmp_path / "results", tmp_path / "results" / "cells", progress=False
+    )
+    run = local.cell_run_dir(sweep_dir / cell.name)
     rel = first.relative_to(root / "cells" / shorter.name)  # the same run, trained on
     assert run.relative_to(sweep_dir / cell.name) == rel
     assert (sweep_dir / shorter.name / rel / "metrics.jsonl").read_text() == before
-    sweep.run_sweep(longer, tmp_path / "straight", tmp_path / "elsewhere", progress=False)
-    fresh = sweep.cell_run_dir(tmp_path / "straight" / cell.name)
+    sweep.run_sweep(
+        longer,
+        tmp_path / "straight",
+        tmp_path / "elsewhere",
+        tmp_path / "elsewhere" / "cells",
+        progress=False,
+    )
+    fresh = local.cell_run_dir(tmp_path / "straight" / cell.name)
     drop_wall = lambda rows: [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]
     assert drop_wall(read_metrics(run)) == drop_wall(read_metrics(fresh))
     assert max(r["epoch"] for r in read_metrics(run)) == 3
     other = dataclasses.replace(exp, epochs=3, train={**TINY, "cycles": 1})
-    assert sweep.copy_shorter_run(other.cells()[0], sweep_dir / other.cells()[0].name) is None
+    assert local.copy_shorter_run(other.cells()[0], sweep_dir / other.cells()[0].name) is None
 
 
 def test_a_field_whose_default_changed_matches_older_definitions_at_its_earlier_value():
@@ -366,3 +396,54 @@ def test_a_run_written_before_a_default_changed_loads_at_the_earlier_value(tmp_p
     (tmp_path / "config.json").write_text(json.dumps(raw))
     fast = runner.load_config(tmp_path).options["fast"]
     assert fast.eval_average == 0.0 and fast.pick_in_training is True
+
+
+def test_a_sweep_run_elsewhere_takes_the_committed_store_and_trains_nothing(tmp_path, monkeypatch):
+    """From another working directory, `--results TMP` regenerates a thesis CSV from the
+    checkout's committed cells: the same bytes as the committed CSV, and no cell directory
+    made (nothing trained). `--estimate` counts those cells as done."""
+    from mjx_skills.sweeps import cost
+
+    monkeypatch.chdir(tmp_path)
+    sweep.main(["--experiment", "fig6_5", "--results", "out", "--no-progress"])
+    committed = sweep.RESULTS / "fig6_5.csv"
+    assert (tmp_path / "out" / "fig6_5.csv").read_bytes() == committed.read_bytes()
+    assert not (tmp_path / "runs").exists()
+    text = cost.report(load_experiment("fig6_5"), jobs=1)
+    est = json.loads(text.splitlines()[-1])
+    assert est["cells"] == {} and len(est["stored"]) == 2 and est["wall_s"] == 0
+    assert "2 cells, 2 stored; 0.00 h" in text
+
+
+def test_the_list_groups_every_experiment_by_what_it_is_for(capsys):
+    from mjx_skills.sweeps.experiments import GROUPS
+
+    sweep.main(["--list"])
+    lines = capsys.readouterr().out.splitlines()
+    headings = [line.split(":")[0] for line in lines if not line.startswith(" ")]
+    assert headings == [g for g in GROUPS if any(load_experiment(n).group == g for n in names())]
+    listed = [line.split()[0] for line in lines if line.startswith(" ")]
+    assert sorted(listed) == names()
+    under, group = {}, None
+    for line in lines:
+        if not line.startswith(" "):
+            group = line.split(":")[0]
+        else:
+            under[line.split()[0]] = (group, line.split()[1])
+    assert under["fig6_3"] == ("thesis", "16/16")
+    assert under["headline_fast"][0] == "beyond" and under["smoke"][0] == "diagnostic"
+
+
+def test_an_experiment_file_must_say_what_it_is_for(tmp_path, monkeypatch):
+    from mjx_skills.sweeps import experiments
+
+    monkeypatch.setattr(experiments, "EXPERIMENTS", tmp_path)
+    body = 'description = "t"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
+    (tmp_path / "a.toml").write_text(body)
+    with pytest.raises(ValueError, match="group must be one of thesis, beyond, baseline"):
+        load_experiment("a")
+    (tmp_path / "b.toml").write_text(body + 'group = "misc"\n')
+    with pytest.raises(ValueError, match="unknown group 'misc'; valid: thesis"):
+        load_experiment("b")
+    (tmp_path / "c.toml").write_text(body + 'group = "diagnostic"\n')
+    assert load_experiment("c").group == "diagnostic"

@@ -27,8 +27,10 @@ from pathlib import Path
 from typing import Any
 
 from mjx_skills.core.files import read_json, read_jsonl, sha256_file, write_json_atomic
+from mjx_skills.core.paths import CHECKOUT
 
-STORE = Path("experiments") / "results" / "cells"
+STORE = CHECKOUT / "experiments" / "results" / "cells"
+"""The committed store of the checkout the package runs from (`sweep --store` for another)."""
 VOLATILE = {("train", "out"), ("train", "progress"), ("train", "checkpoint_every")}
 """Config fields that do not change a run's results."""
 FILES = ("definition.json", "metrics.jsonl", "made_by.json")
@@ -79,8 +81,11 @@ def defaults(method: str) -> dict[str, Any]:
     groups = {name: dataclasses.asdict(opt) for name, opt in spec.options.items()}
     for group, fields in spec.earlier.items():
         groups[group] = {**groups[group], **fields}
-    raw = {"train": dataclasses.asdict(TrainConfig()), "env": dataclasses.asdict(EnvConfig()),
-           "options": groups}  # fmt: skip
+    raw = {
+        "train": dataclasses.asdict(TrainConfig()),
+        "env": dataclasses.asdict(EnvConfig()),
+        "options": groups,
+    }
     return json.loads(json.dumps(raw))
 
 
@@ -90,10 +95,14 @@ def differences(old: Any, new: Any, path: str = "", default: Any = None) -> list
     written, at the default that keeps the earlier behaviour) is no difference."""
     if isinstance(old, dict) and isinstance(new, dict):
         default = default if isinstance(default, dict) else {}
-        return [d for k in sorted(set(old) | set(new))
-                if k in old or k not in default or new.get(k) != default[k]
-                for d in differences(old.get(k), new.get(k), f"{path}.{k}" if path else k,
-                                     default.get(k))]  # fmt: skip
+        return [
+            d
+            for k in sorted(set(old) | set(new))
+            if k in old or k not in default or new.get(k) != default[k]
+            for d in differences(
+                old.get(k), new.get(k), f"{path}.{k}" if path else k, default.get(k)
+            )
+        ]
     return [] if old == new else [f"{path}: {old!r} != {new!r}"]
 
 
@@ -101,8 +110,11 @@ def _config_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
     """`differences` of two configs, but in the options the new one's method does not read
     (`Method.unread_now`: they cannot change its results)."""
     unread = _unread(new)
-    return [d for d in differences(old, new, default=defaults(new["method"]))
-            if d.split(":")[0] not in unread]  # fmt: skip
+    return [
+        d
+        for d in differences(old, new, default=defaults(new["method"]))
+        if d.split(":")[0] not in unread
+    ]
 
 
 def _unread(config: dict[str, Any]) -> set[str]:
@@ -112,8 +124,10 @@ def _unread(config: dict[str, Any]) -> set[str]:
 
     spec = methods.get(config["method"])
     groups = {g: types.SimpleNamespace(**config["options"][g]) for g in spec.options}
-    return {f"options.{path}" if path.split(".")[0] in spec.options else path
-            for path in spec.unread_now(groups)}  # fmt: skip
+    return {
+        f"options.{path}" if path.split(".")[0] in spec.options else path
+        for path in spec.unread_now(groups)
+    }
 
 
 def run_differences(run_dir: Path, cell) -> list[str]:
@@ -151,8 +165,9 @@ def save(cell, run_dir: Path, store: Path = STORE) -> Path:
     tmp.mkdir(parents=True)
     shutil.copyfile(Path(run_dir) / "metrics.jsonl", tmp / "metrics.jsonl")
     meta = {**definition(cell), "made_by": provenance()}
-    (tmp / "definition.json").write_text(json.dumps(
-        {k: meta[k] for k in ("config", "library")}, indent=1, sort_keys=True))  # fmt: skip
+    (tmp / "definition.json").write_text(
+        json.dumps({k: meta[k] for k in ("config", "library")}, indent=1, sort_keys=True)
+    )
     (tmp / "made_by.json").write_text(json.dumps(meta["made_by"], indent=1))
     write_checksums(tmp)
     shutil.rmtree(where, ignore_errors=True)

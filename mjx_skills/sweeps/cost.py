@@ -28,10 +28,11 @@ import heapq
 import json
 from pathlib import Path
 
-from mjx_skills.sweeps.experiments import Cell, Experiment
+from mjx_skills.sweeps.cell import Cell
+from mjx_skills.sweeps.cells import STORE
+from mjx_skills.sweeps.experiments import Experiment
 
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "epoch_cost.jsonl"
-STORE = Path(__file__).resolve().parents[2] / "experiments" / "results" / "cells"
 BENCHMARKED = ("ddpg_her", "pas", "mpas", "ddpg_her_sl", "ddpg_her_sl_bc")
 """Methods whose epochs `benchmarks/epoch_cost.py` measures (BC's extra loss term is noise
 beside DDPG+HER+SL's epoch)."""
@@ -70,8 +71,9 @@ class CostTable:
         rows = [r for r in self.rows if r["variant"] == variant and r["cores"] == self.cores]
         if not rows:
             have = sorted({(r["variant"], r["cores"]) for r in self.rows})
-            raise ValueError(f"no epoch cost measured for {variant!r} on {self.cores} core(s); "
-                             f"measured: {have}")  # fmt: skip
+            raise ValueError(
+                f"no epoch cost measured for {variant!r} on {self.cores} core(s); measured: {have}"
+            )
         return rows
 
     def epoch_s(self, variant: str, seeds: int, length: int = REFERENCE_LENGTH) -> float:
@@ -163,34 +165,64 @@ def makespan(seconds: list[float], jobs: int) -> float:
     return max(free)
 
 
+def is_stored(cell: Cell, store: Path = STORE) -> bool:
+    """`cell` is in the store with the definition that would make it again (a sweep takes
+    it without training); a stored cell of another definition is not (a sweep refuses it)."""
+    from mjx_skills.sweeps.cells import stored
+
+    try:
+        return stored(cell, store) is not None
+    except ValueError:
+        return False
+
+
 def estimate(
-    exp: Experiment, jobs: int, rows: list[dict] | None = None, cores: int | None = None,
+    exp: Experiment,
+    jobs: int,
+    rows: list[dict] | None = None,
+    cores: int | None = None,
     store: Path = STORE,
-) -> dict:  # fmt: skip
-    """{cells: {name: s}, serial_s, wall_s, jobs, cores_per_job} for a training experiment
-    on `cores` cores (default: the ones this process may use)."""
+    from_scratch: bool = False,
+) -> dict:
+    """{cells: {name: s}, stored: [name], serial_s, wall_s, jobs, cores_per_job} for a
+    training experiment on `cores` cores (default: the ones this process may use). A cell
+    already in `store` costs nothing (the sweep takes it) and is listed in `stored`, unless
+    `from_scratch` (what every cell would cost to train)."""
     from mjx_skills.core.workers import usable_cores
 
-    rows = [r for r in rows if "variant" in r] if rows is not None else load_rows()
-    jobs = max(1, min(jobs, len(exp.cells())))  # as the sweep: no more workers than cells
-    want = max(1, (cores or usable_cores()) // jobs)
-    # The measured core count nearest to what each cell gets here.
-    cores = min({r["cores"] for r in rows} or {want}, key=lambda c: (abs(c - want), c))
-    table = CostTable(tuple(rows), cores)
-    cells = {c.name: cell_seconds(c, table, store) for c in exp.cells()}
-    return {"experiment": exp.name, "jobs": jobs, "cores_per_job": cores,
-            "cells": {k: round(v) for k, v in cells.items()},
-            "serial_s": round(sum(cells.values())),
-            "wall_s": round(makespan(list(cells.values()), jobs))}  # fmt: skip
+    done = [] if from_scratch else [c for c in exp.cells() if is_stored(c, store)]
+    todo = [c for c in exp.cells() if c not in done]
+    jobs = max(1, min(jobs, len(todo)))  # as the sweep: no more workers than cells to run
+    cells: dict[str, float] = {}
+    if todo:
+        rows = [r for r in rows if "variant" in r] if rows is not None else load_rows()
+        want = max(1, (cores or usable_cores()) // jobs)
+        # The measured core count nearest to what each cell gets here.
+        cores = min({r["cores"] for r in rows} or {want}, key=lambda c: (abs(c - want), c))
+        table = CostTable(tuple(rows), cores)
+        cells = {c.name: cell_seconds(c, table, store) for c in todo}
+    return {
+        "experiment": exp.name,
+        "jobs": jobs,
+        "cores_per_job": cores,
+        "cells": {k: round(v) for k, v in cells.items()},
+        "stored": [c.name for c in done],
+        "serial_s": round(sum(cells.values())),
+        "wall_s": round(makespan(list(cells.values()), jobs)),
+    }
 
 
-def report(exp: Experiment, jobs: int) -> str:
+def report(exp: Experiment, jobs: int, store: Path = STORE) -> str:
     """Human-readable estimate; the last line is the estimate as JSON."""
     if exp.kind != "train":
         raise SystemExit(f"error: --estimate models training experiments; {exp.name} is {exp.kind}")
-    est = estimate(exp, jobs)
+    est = estimate(exp, jobs, store=store)
     lines = [f"{name:50s} {s / 60:6.1f} min" for name, s in est["cells"].items()]
-    lines.append(f"{exp.name}: {len(est['cells'])} cells, {est['wall_s'] / 3600:.2f} h with "
-                 f"--jobs {est['jobs']} ({est['cores_per_job']} core(s) each; "
-                 f"{est['serial_s'] / 3600:.2f} h of cell time)")  # fmt: skip
+    lines += [f"{name:50s} stored (taken from {store})" for name in est["stored"]]
+    total = len(est["cells"]) + len(est["stored"])
+    lines.append(
+        f"{exp.name}: {total} cells, {len(est['stored'])} stored; "
+        f"{est['wall_s'] / 3600:.2f} h with --jobs {est['jobs']} "
+        f"({est['cores_per_job']} core(s) each; {est['serial_s'] / 3600:.2f} h of cell time)"
+    )
     return "\n".join([*lines, json.dumps(est)])

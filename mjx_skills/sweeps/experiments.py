@@ -37,70 +37,20 @@ import typing
 from pathlib import Path
 from typing import Any
 
-from mjx_skills.sweeps.seeds import ROLES, check_headline_seeds, describe, seed_range
+from mjx_skills.sweeps.cell import Cell
+from mjx_skills.sweeps.seeds import ROLES, check_headline_seeds, seed_range
 
 EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
-
-
-@dataclasses.dataclass(frozen=True)
-class Cell:
-    """One training run of a sweep: a task, a method, its library and the budget."""
-
-    task: str
-    method: str
-    library: str | None
-    seeds: int
-    epochs: int
-    train: tuple[tuple[str, Any], ...] = ()
-    """TrainConfig overrides as (field, value) pairs (hashable)."""
-    options: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
-    """Option-group overrides: (group, ((field, value), ...))."""
-    samples: int | None = None
-    """A library cell: build a skill library from this many runs per skill (Table 5.1)."""
-    preset: str = "default"
-    """The method's option preset (`methods.PRESETS`), under `options`."""
-    env: tuple[tuple[str, Any], ...] = ()
-    """EnvConfig overrides as (field, value) pairs."""
-    label: str = ""
-    """Appended to the name: a variant of a cell (e.g. 'single_goal')."""
-    seed: int = 0
-    """The first seed (`sweeps.seeds`): the name says the seeds when it is not 0."""
-
-    @property
-    def name(self) -> str:
-        if self.samples:
-            fields = dict(self.options).get("library", ())
-            return f"library-n{self.samples}" + "".join(f"-{k}-{v}" for k, v in fields)
-        lib = f"-{self.library}" if self.library else ""
-        preset = "" if self.preset == "default" else f"-{self.preset}"
-        label = f"-{self.label}" if self.label else ""
-        seeds = f"s{self.seeds}"
-        if self.seed:
-            seeds = "seeds" + describe(seed_range(self.seed, self.seeds))
-        return f"{self.task}-{self.method}{lib}{preset}{label}-{seeds}-e{self.epochs}"
-
-    def run_args(self, out: str, progress: bool = True):
-        from mjx_skills import methods
-        from mjx_skills.config import EnvConfig, TrainConfig
-        from mjx_skills.training.runner import RunArgs
-
-        spec = methods.get(self.method)
-        groups = {group: dict(fields) for group, fields in self.options}
-        if self.library:
-            groups.setdefault(methods.get(self.method).library_group, {})["library"] = self.library
-        base = methods.preset_options(self.method, self.preset)
-        options = {g: dataclasses.replace(base[g], **groups.get(g, {})) for g in spec.options}
-        train = TrainConfig(
-            task=self.task,
-            epochs=self.epochs,
-            seed=self.seed,
-            seeds=self.seeds,
-            out=out,
-            progress=progress,
-            **dict(self.train),
-        )
-        return RunArgs(train=train, method=self.method, env=EnvConfig(**dict(self.env)),
-                       options=options)  # fmt: skip
+GROUPS = {
+    "thesis": "reproduce the thesis's figures and tables",
+    "beyond": "go beyond the thesis (methods and tasks of this project)",
+    "baseline": "baselines and bounds the results are set against",
+    "tuning": "candidates measured to choose a default (seeds 0-4)",
+    "ablation": "a default with one part removed",
+    "diagnostic": "checks of the pipeline and explanations of a shortfall",
+    "adhoc": "a grid given on the command line",
+}
+"""What an experiment is for: every file in experiments/ declares one (`group = ...`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,6 +79,8 @@ class Experiment:
     """The first seed of every cell (seeds `seed` ... `seed + seeds - 1`)."""
     role: str = "tuning"
     """`sweeps.seeds.ROLES`: 'headline' cells must not run on a tuning seed."""
+    group: str = "adhoc"
+    """What the experiment is for (`GROUPS`; `sweep --list` groups by it)."""
 
     def __post_init__(self) -> None:
         from mjx_skills import methods
@@ -159,6 +111,10 @@ class Experiment:
         if self.seeds < 1 or self.epochs < 1:
             raise ValueError(f"experiment {self.name}: seeds and epochs must be >= 1")
         self._check_seeds()
+        if self.group not in GROUPS:
+            raise ValueError(
+                f"experiment {self.name}: unknown group {self.group!r}; valid: {', '.join(GROUPS)}"
+            )
         self._check_fields("[env]", self.env, EnvConfig)
         if self.label and not self.label.replace("_", "").isalnum():
             raise ValueError(f"experiment {self.name}: label {self.label!r}: letters, digits, _")
@@ -312,9 +268,17 @@ class Experiment:
             libs = self.libraries if methods.get(method).library_group else (None,)
             for lib in libs:
                 # TOML arrays become tuples: the config fields they set are tuples (hidden).
-                opts = tuple((g, tuple(sorted((k, tuple(v) if isinstance(v, list) else v)
-                                              for k, v in f.items())))
-                             for g, f in sorted(self.options.get(method, {}).items()))  # fmt: skip
+                opts = tuple(
+                    (
+                        g,
+                        tuple(
+                            sorted(
+                                (k, tuple(v) if isinstance(v, list) else v) for k, v in f.items()
+                            )
+                        ),
+                    )
+                    for g, f in sorted(self.options.get(method, {}).items())
+                )
                 cell = Cell(
                     task,
                     method,
@@ -363,13 +327,16 @@ def load_experiment(name: str) -> Experiment:
         raise ValueError(
             f"{path}: libraries are set but no method of {raw.get('methods')} uses one"
         )
+    if raw.get("group") in (None, "adhoc"):
+        valid = ", ".join(g for g in GROUPS if g != "adhoc")
+        raise ValueError(f"{path}: group must be one of {valid} (what the experiment is for)")
     for key in ("tasks", "methods", "libraries", "samples"):
         if key in raw:
             raw[key] = tuple(raw[key])
     return Experiment(name=name, **raw)
 
 
-LIBRARY_KEYS = {"description", "kind", "samples", "library"}
+LIBRARY_KEYS = {"description", "group", "kind", "samples", "library"}
 """What a `kind = "library"` file reads: its other keys would be dropped, so are refused."""
 
 
@@ -380,5 +347,10 @@ def _library_method(method: str) -> bool:
 
 
 def adhoc(name: str, tasks, methods, libraries=None) -> Experiment:
-    return Experiment(name=name, description="ad-hoc grid", tasks=tuple(tasks),
-                      methods=tuple(methods), libraries=tuple(libraries or ("SL1",)))  # fmt: skip
+    return Experiment(
+        name=name,
+        description="ad-hoc grid",
+        tasks=tuple(tasks),
+        methods=tuple(methods),
+        libraries=tuple(libraries or ("SL1",)),
+    )

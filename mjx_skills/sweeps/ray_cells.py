@@ -8,7 +8,7 @@ from pathlib import Path
 
 from tqdm.auto import tqdm
 
-from mjx_skills.sweeps.experiments import Cell
+from mjx_skills.sweeps.cell import Cell
 
 
 def check_ray_address(address: str, timeout_s: float = 5.0) -> None:
@@ -33,11 +33,16 @@ def run_cells_ray(
         import ray
     except ImportError:
         raise SystemExit("error: --ray needs Ray: pip install -e '.[ray]'") from None
-    ray.init(address=None if address == "local" else address, include_dashboard=False,
-             log_to_driver=False, ignore_reinit_error=True)  # fmt: skip
+    ray.init(
+        address=None if address == "local" else address,
+        include_dashboard=False,
+        log_to_driver=False,
+        ignore_reinit_error=True,
+    )
     task = ray.remote(num_cpus=1)(run_cell)
-    pending = {task.remote(c, str(d), False, str(store)): c
-               for c, d in zip(cells, dirs, strict=True)}  # fmt: skip
+    pending = {
+        task.remote(c, str(d), False, str(store)): c for c, d in zip(cells, dirs, strict=True)
+    }
     done_dirs: dict[Cell, str] = {}
     with tqdm(total=len(cells), desc="cells", unit="cell") as bar:
         while pending:
