@@ -4,7 +4,7 @@ VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.stamp-setup
 TASK    ?= pick_move
-METHOD  ?= ddpg_her_sl
+METHOD  ?=
 EPOCHS  ?= 100
 LIBRARY := experiments/skill_library
 SEEDS   ?= 1
@@ -21,7 +21,8 @@ $(STAMP): pyproject.toml
 	PYTHONWARNINGS=ignore $(BIN)/pip install --quiet -e '.[dev,notebook,ray]'
 	touch $(STAMP)
 
-# DDPG+HER+SL by default; a library method builds the skill library first if there is none.
+# The CLI's default method (DDPG+HER+SL) unless METHOD=...; a library method builds the skill
+# library first if there is none.
 train: setup
 	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills; fi
 	$(BIN)/python -m mjx_skills.train $(METHOD) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)

@@ -1,11 +1,15 @@
 """Command line of training: one subcommand per method, each with only its own options.
 
-python -m mjx_skills.train ddpg_her --task transit --epochs 20 --seeds 2
-python -m mjx_skills.train --task transit              # the method defaults to ddpg_her
-python -m mjx_skills.train --method ddpg_her ...       # earlier form, still accepted
-python -m mjx_skills.train --resume RUN_DIR            # the run's config.json decides
-python -m mjx_skills.train --resume RUN_DIR --epochs 60  # ... and train on to 60 epochs
-python -m mjx_skills.train ddpg_her_sl --preset thesis # the thesis's formulation (methods.PRESETS)
+examples:
+  python -m mjx_skills.train --task pick_move             # DDPG+HER+SL, the default method
+  python -m mjx_skills.train ddpg_her --task transit --epochs 20 --seeds 2
+  python -m mjx_skills.train ddpg_her_sl --preset thesis  # the thesis's formulation
+  python -m mjx_skills.train --resume RUN_DIR             # the run's config.json decides
+  python -m mjx_skills.train --resume RUN_DIR --epochs 60 # ... and train on to 60 epochs
+
+Read before the method's options: --resume RUN_DIR [--epochs N] (nothing else with it),
+--preset NAME (a method's option preset: default, thesis) and --method NAME (an earlier
+form of the subcommand).
 """
 
 from __future__ import annotations
@@ -24,7 +28,10 @@ from mjx_skills.training.interrupt import INTERRUPTED
 from mjx_skills.training.metrics_log import logged_epochs
 from mjx_skills.training.runner import RunArgs, load_config, summary, train_run
 
-DEFAULT_METHOD = "ddpg_her"
+DEFAULT_METHOD = "ddpg_her_sl"
+"""The method run when none is named (here and by `make train`): of the thesis's methods
+the one that reaches 0.9 on pick_move soonest in wall time on a CPU (DDPG+HER+SL+Fast gets
+there in fewer epochs, each about four times as long: docs/results.md)."""
 
 ALIASES = {"--physics": "--env.physics"}
 """Short flags for the most used nested options."""
@@ -51,16 +58,30 @@ def method_args_type(spec: methods.Method, preset: str = "default") -> type:
     """The CLI dataclass of one method: train options without prefix, --env.*, and one
     prefix per option group of the method (e.g. --ddpg.*), its defaults those of `preset`."""
     groups = methods.preset_options(spec.name, preset)
+    train = Annotated[TrainConfig, tyro.conf.OmitArgPrefixes]
     fields = [
-        ("train", Annotated[TrainConfig, tyro.conf.OmitArgPrefixes],
-         dataclasses.field(default=TrainConfig())),
+        ("train", train, dataclasses.field(default=TrainConfig())),
         ("env", EnvConfig, dataclasses.field(default=EnvConfig())),
-        *[(name, type(default), dataclasses.field(default=default))
-          for name, default in groups.items()],
-    ]  # fmt: skip
+        *[
+            (name, type(default), dataclasses.field(default=default))
+            for name, default in groups.items()
+        ],
+    ]
     cls = dataclasses.make_dataclass(f"{spec.name}_args", fields, frozen=True)
-    cls.__doc__ = spec.description
+    cls.__doc__ = f"{spec.description}\n\n{tasks_line()}"
     return cls
+
+
+def tasks_line() -> str:
+    """'tasks (--task): ...' with every registered task, for the help."""
+    from mjx_skills.envs.registry import ENVS
+
+    return f"tasks (--task): {', '.join(ENVS)}"
+
+
+def description() -> str:
+    """The help's text: this module's examples and the tasks."""
+    return f"{__doc__.rstrip()}\n\n{tasks_line()}\n"
 
 
 def parse(argv: list[str]) -> RunArgs:
@@ -70,8 +91,10 @@ def parse(argv: list[str]) -> RunArgs:
     if resume is not None:
         epochs, rest = _flag_value(rest, "--epochs")
         if rest:
-            raise SystemExit(f"error: --resume takes only --epochs N (its config.json decides "
-                             f"the rest), got {' '.join(rest)}")  # fmt: skip
+            raise SystemExit(
+                f"error: --resume takes only --epochs N (its config.json decides the rest), "
+                f"got {' '.join(rest)}"
+            )
         if epochs is not None and not epochs.isdigit():
             raise SystemExit(f"error: --epochs needs a whole number, got {epochs!r}")
         return RunArgs(resume=resume, extend_to=None if epochs is None else int(epochs))
@@ -87,7 +110,10 @@ def parse(argv: list[str]) -> RunArgs:
     except (ValueError, NotImplementedError) as err:
         raise SystemExit(f"error: {err}") from None
     parsed = tyro.extras.subcommand_cli_from_dict(
-        types, args=[*([name] if name else []), *argv], description=__doc__
+        types,
+        args=[*([name] if name else []), *argv],
+        description=description(),
+        prog="python -m mjx_skills.train",
     )
     chosen = next(n for n, t in types.items() if isinstance(parsed, t))
     options = {group: getattr(parsed, group) for group in specs[chosen].options}

@@ -251,6 +251,36 @@ def test_a_failing_progress_bar_is_dropped_with_one_warning(monkeypatch, caplog)
     bar.close()
 
 
+def test_the_eta_counts_from_the_second_epoch(monkeypatch):
+    """The first epoch of a process holds the compile: after `restart_clock` the bar's rate
+    (and so its ETA) is that of the epochs since, not an average over the compile."""
+    import io
+
+    import tqdm
+
+    now = [0.0]
+
+    def clocked(**options):
+        bar = tqdm.tqdm(file=io.StringIO(), mininterval=0, **options)
+        bar._time = lambda: now[0]  # tqdm reads its clock through this attribute
+        bar.start_t = bar.last_print_t = 0.0
+        return bar
+
+    monkeypatch.setattr(metrics_log, "tqdm", clocked)
+    bar = metrics_log.progress_bar(11, 0, enabled=True, desc="x")
+    now[0] = 100.0  # compile and epoch 1
+    bar.update(1)
+    bar.restart_clock()
+    for _ in range(4):
+        now[0] += 2.0
+        bar.update(1)
+    shown = bar._bar.format_dict
+    assert shown["n"] == 5 and shown["initial"] == 1
+    assert shown["rate"] == pytest.approx(0.5, rel=0.05)  # 2 s an epoch, not 108 s / 5
+    assert "[00:08<00:12" in str(bar._bar)  # 6 epochs left at 2 s each
+    bar.close()
+
+
 # ------------------------------------------------------------------ stored cells
 @pytest.fixture
 def stored_cell(tmp_path):

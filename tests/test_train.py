@@ -214,10 +214,30 @@ def test_cli_forms_parse_to_the_same_run():
     sub = parse(["ddpg_her", "--task", "transit", "--ddpg.actor-lr", "3e-4", "--physics", "mjx"])
     old = parse(["--method", "ddpg_her", "--task", "transit", "--ddpg.actor-lr", "3e-4",
                  "--env.physics", "mjx"])  # fmt: skip
-    default = parse(["--task", "transit", "--ddpg.actor-lr", "3e-4", "--physics=mjx"])
-    assert sub == old == default
+    assert sub == old
     assert sub.method == "ddpg_her" and sub.options["ddpg"].actor_lr == 3e-4
     assert sub.env.physics == "mjx" and sub.train.task == "transit"
+    # No method named: the default, DDPG+HER+SL (as `make train`), with the same flags.
+    default = parse(["--task", "transit", "--ddpg.actor-lr", "3e-4", "--physics=mjx"])
+    assert default.method == "ddpg_her_sl" and default.options["ddpg"] == sub.options["ddpg"]
+    assert (default.train, default.env) == (sub.train, sub.env)
+
+
+def test_the_help_lists_the_tasks_the_early_flags_and_one_example_a_line(capsys):
+    from mjx_skills.envs.registry import ENVS
+    from mjx_skills.train import main
+
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = capsys.readouterr().out
+    assert f"tasks (--task): {', '.join(ENVS)}" in " ".join(text.split())
+    for flag in ("--resume RUN_DIR", "--preset NAME", "--method NAME"):
+        assert flag in text
+    examples = [line for line in text.splitlines() if "python -m mjx_skills.train " in line]
+    assert len(examples) >= 4 and all(line.count("python -m") == 1 for line in examples)
+    with pytest.raises(SystemExit):
+        main(["pas", "--help"])
+    assert "fetch_pick_and_place" in capsys.readouterr().out
 
 
 def test_resume_takes_only_a_longer_budget_on_the_command_line():

@@ -111,6 +111,24 @@ class _Bar:
         if self._bar is not None:
             self._guard(lambda: self._bar.update(n))
 
+    def set_postfix_str(self, text: str) -> None:
+        if self._bar is not None:
+            self._guard(lambda: self._bar.set_postfix_str(text))
+
+    def restart_clock(self) -> None:
+        """Time the bar's rate and ETA from now on, counting the epochs done so far as
+        initial: the first epoch of a process includes the compile (tens of seconds), which
+        would otherwise make the ETA many times too long."""
+        if self._bar is not None:
+            self._guard(self._restart)
+
+    def _restart(self) -> None:
+        bar, done, postfix = self._bar, self._bar.n, self._bar.postfix
+        bar.reset(total=bar.total)  # the clock and the rate's moving averages start anew
+        bar.n = bar.last_print_n = bar.initial = done
+        bar.postfix = postfix
+        bar.refresh()
+
     def close(self) -> None:
         if self._bar is not None:
             self._guard(self._bar.close)

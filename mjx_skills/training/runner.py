@@ -176,6 +176,7 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     writer = MetricsWriter(run_dir, resume_from_epoch=start)
     steps_per_epoch = cfg.envs * cfg.cycles * env.episode_length
     bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{args.method}")
+    bar.set_postfix_str("compiling the epoch (the first one takes longer)")
     logged, t0 = start, time.time()
     try:
         with deferred_stop() as stop:
@@ -189,10 +190,12 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
                 sps = steps_per_epoch * cfg.seeds / max(time.time() - t_epoch, 1e-9)
                 bar.set_postfix(
                     eval_success=f"{metrics['eval_success'].mean():.2f}",
-                    env_steps=int(metrics["env_steps"][0]),
-                    steps_per_s=f"{sps:.0f}",
+                    env_steps=str(int(metrics["env_steps"][0])),  # an int: tqdm writes 2e+4
+                    steps_per_s=str(round(sps)),
                 )
                 bar.update(1)
+                if epoch == start + 1:  # it held the compile: the ETA counts from here
+                    bar.restart_clock()
                 last = epoch == cfg.epochs
                 if last or epoch % cfg.checkpoint_every == 0 or stop or epoch == stop_after:
                     with stop.shielded():  # a second signal waits for the whole checkpoint
