@@ -6,7 +6,8 @@ python -m mjx_skills.render RUN_DIR [--episodes 1] [--out RUN_DIR/render.gif] [-
 The episodes run in the JAX env on the native backend (`rollout.run_episodes` with the
 method's deterministic evaluation behaviour, as `python -m mjx_skills.evaluate`); each state's
 joint positions are then set on one MjData and drawn offscreen by `mujoco.Renderer`: one
-frame per env step (0.15 s of simulated time), each episode's start state included.
+frame per env step (0.15 s of simulated time), each episode's start state included, with
+the desired goal marked by a translucent green sphere (each cube's on two-cube tasks).
 `--solved` draws only the episodes that end solved, and says how many of those run did.
 
 OpenGL: MuJoCo picks its GL backend from MUJOCO_GL when it is first imported. Without a
@@ -144,8 +145,9 @@ def gl_error() -> str | None:
 def record_episodes(
     run: Any, key: jax.Array, episodes: int, run_seed: int = 0
 ) -> tuple[np.ndarray, ...]:
-    """Trained seed `run_seed`'s evaluation episodes of a `mjx_skills.evaluate.TrainedRun` -> joint positions
-    (n, T + 1, nq), grip positions (n, T + 1, 3) and final success (n,)."""
+    """Trained seed `run_seed`'s evaluation episodes of a `mjx_skills.evaluate.TrainedRun` ->
+    joint positions (n, T + 1, nq), grip positions (n, T + 1, 3), final success (n,) and
+    desired goals (n, T + 1, goal_dim)."""
     qpos_of = run.env.backend.qpos
 
     def fn(agent, aux, key):
@@ -160,7 +162,9 @@ def record_episodes(
         recording = rollout.Behaviour(init=behaviour.init, step=step)
         recorded, final, records = rollout.run_episodes(run.env, recording, key, episodes)
         qpos = jnp.concatenate([records["render_qpos"], qpos_of(final.physics)[:, None]], 1)
-        return qpos, recorded.obs[..., run.env.layout["grip"]], final.metrics["success"]
+        goals = jnp.concatenate([recorded.g, final.desired_goal[:, None]], 1)
+        grip = recorded.obs[..., run.env.layout["grip"]]
+        return qpos, grip, final.metrics["success"], goals
 
     n_seeds = jax.tree.leaves(run.agents)[0].shape[0]
     if not 0 <= run_seed < n_seeds:
@@ -171,16 +175,45 @@ def record_episodes(
     return tuple(np.asarray(x) for x in jax.jit(fn)(agent, run.aux, key))
 
 
-def solved_only(qpos, grip, success) -> tuple[np.ndarray, np.ndarray]:
-    """`record_episodes`' qpos (n, T + 1, nq) and grip (n, T + 1, 3) of the episodes whose
-    success (n,) is set. ValueError when none is."""
+def solved_only(qpos, grip, success, goals=None) -> tuple[np.ndarray, ...]:
+    """`record_episodes`' qpos (n, T + 1, nq), grip (n, T + 1, 3) and goals (n, T + 1, g),
+    if given, of the episodes whose success (n,) is set. ValueError when none is."""
     solved = np.asarray(success) > 0
     if not solved.any():
         raise ValueError(
             f"none of the {len(solved)} episode(s) was solved; nothing to draw "
             "(try more --episodes)"
         )
-    return np.asarray(qpos)[solved], np.asarray(grip)[solved]
+    kept = (np.asarray(qpos)[solved], np.asarray(grip)[solved])
+    return kept if goals is None else (*kept, np.asarray(goals)[solved])
+
+
+GOAL_RGBA = (0.1, 0.9, 0.2, 0.6)
+"""The goal markers' colour: translucent green (each cube's goal on a several-cube task)."""
+GOAL_RADIUS = 0.02
+"""The goal markers' radius in m (gymnasium-robotics draws its target as a 2 cm sphere)."""
+
+
+def mark_goals(scene: Any, goal: np.ndarray) -> None:
+    """Add a sphere to a `mujoco.MjvScene` at each 3-D point of `goal` (goal_dim,): the
+    cube's goal, each cube's on a several-cube task; nothing where goal_dim is not a
+    multiple of 3 or the scene is full."""
+    import mujoco
+
+    if goal.size % 3:
+        return
+    for point in goal.reshape(-1, 3):
+        if scene.ngeom >= scene.maxgeom:
+            return
+        mujoco.mjv_initGeom(
+            scene.geoms[scene.ngeom],
+            type=mujoco.mjtGeom.mjGEOM_SPHERE,
+            size=np.array([GOAL_RADIUS, 0.0, 0.0]),
+            pos=np.asarray(point, np.float64),
+            mat=np.eye(3).ravel(),
+            rgba=np.array(GOAL_RGBA, np.float32),
+        )
+        scene.ngeom += 1
 
 
 def draw_frames(
@@ -191,9 +224,11 @@ def draw_frames(
     height: int,
     camera: str | None,
     default_view: dict = DEFAULT_VIEW,
+    goals: np.ndarray | None = None,
 ) -> np.ndarray:
     """(frames, height, width, 3) uint8: each qpos set on one MjData and drawn (from
-    `default_view`, a free camera, unless `camera` names one of the model's)."""
+    `default_view`, a free camera, unless `camera` names one of the model's), with the
+    frame's desired goal (`goals`, (..., goal_dim) as qpos) marked (`mark_goals`)."""
     import mujoco
 
     if camera is not None and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera) < 0:
@@ -211,12 +246,17 @@ def draw_frames(
     data = mujoco.MjData(model)
     frames = []
     with mujoco.Renderer(model, height, width) as renderer:
-        for q, g in zip(qpos.reshape(-1, model.nq), grip.reshape(-1, 3), strict=True):
+        steps = len(qpos.reshape(-1, model.nq))
+        goal_rows = [None] * steps if goals is None else goals.reshape(steps, -1)
+        rows = zip(qpos.reshape(-1, model.nq), grip.reshape(-1, 3), goal_rows, strict=True)
+        for q, g, goal in rows:
             data.qpos[:] = q
             # The weld's target (a faint red marker) follows the grip, as during the step.
             data.mocap_pos[0] = g
             mujoco.mj_forward(model, data)
             renderer.update_scene(data, camera=view)
+            if goal is not None:
+                mark_goals(renderer.scene, goal)
             frames.append(renderer.render())
     return np.stack(frames)
 
@@ -277,14 +317,14 @@ def main(argv: list[str] | None = None) -> None:
 
     try:
         run = evaluation.load_trained(args.run_dir, physics="native")
-        qpos, grip, success = record_episodes(
+        qpos, grip, success, goals = record_episodes(
             run, jax.random.PRNGKey(args.seed), args.episodes, args.run_seed
         )
         if args.solved:
-            qpos, grip = solved_only(qpos, grip, success)
+            qpos, grip, goals = solved_only(qpos, grip, success, goals)
         view = getattr(run.env, "render_view", DEFAULT_VIEW)  # Fetch: gymnasium-robotics'
         frames = draw_frames(
-            run.env.model, qpos, grip, args.width, args.height, args.camera, default_view=view
+            run.env.model, qpos, grip, args.width, args.height, args.camera, view, goals
         )
     except (FileNotFoundError, ValueError, NotImplementedError) as err:
         # Not a run, no checkpoint, an unknown camera, a missing skill library.

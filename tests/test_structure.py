@@ -109,7 +109,7 @@ def test_layers_import_one_way():
     assert not upward, "imports against the layers: " + ", ".join(upward)
     commands = {m for m in paths if _layer(m) == len(LAYERS)}
     assert commands == {f"mjx_skills.{c}" for c in ("train", "build_library", "sweep", "evaluate",
-                                                     "render", "cli_args")}  # fmt: skip
+                                                     "render", "cli_args", "api")}  # fmt: skip
 
 
 def test_the_package_does_not_import_the_study():
