@@ -251,6 +251,95 @@ def test_a_failing_progress_bar_is_dropped_with_one_warning(monkeypatch, caplog)
     bar.close()
 
 
+def _events(directory: Path) -> dict[str, list[tuple[int, float]]]:
+    """tag -> [(step, value)] of the TFRecord event files in `directory` (tensorboardX's
+    own protobuf; the record framing: length, its CRC, the data, its CRC)."""
+    import struct
+
+    from tensorboardX.proto import event_pb2
+
+    out: dict[str, list[tuple[int, float]]] = {}
+    for path in sorted(directory.glob("events.out.tfevents.*")):
+        data = path.read_bytes()
+        at = 0
+        while at < len(data):
+            (length,) = struct.unpack("<Q", data[at : at + 8])
+            event = event_pb2.Event.FromString(data[at + 12 : at + 12 + length])
+            at += 12 + length + 4
+            for value in event.summary.value:
+                out.setdefault(value.tag, []).append((event.step, value.simple_value))
+    return out
+
+
+def test_tensorboard_logs_each_seed_and_their_mean_under_namespaced_tags(tmp_path):
+    two = {
+        "eval_success": np.array([0.25, 0.75]),
+        "critic_loss": np.array([1.0, 3.0]),
+        "env_steps": np.array([800, 800]),
+    }
+    writer = MetricsWriter(tmp_path)
+    writer.write(1, two, wall_s=0.0)
+    writer.write(2, {**two, "env_steps": np.array([1600, 1600])}, wall_s=0.0)
+    writer.close()
+    seed_1, mean = _events(tmp_path / "tb" / "seed_1"), _events(tmp_path / "tb" / "mean")
+    assert sorted(mean) == ["counters/env_steps", "eval/success", "loss/critic"]
+    assert seed_1["eval/success"] == [(800, 0.75), (1600, 0.75)]
+    assert mean["loss/critic"] == [(800, 2.0), (1600, 2.0)]
+    assert _events(tmp_path / "tb" / "seed_0")["eval/success"][0] == (800, 0.25)
+
+
+def test_metrics_csv_holds_the_jsonl_rows(tmp_path):
+    import csv
+
+    writer = MetricsWriter(tmp_path)
+    writer.write(1, {**METRICS, "q_mean": np.array([-1.5])}, wall_s=0.5)
+    writer.write(2, METRICS, wall_s=1.0)  # a metric one row lacks is empty in the table
+    writer.close()
+    rows = list(csv.DictReader((tmp_path / "metrics.csv").open()))
+    assert list(rows[0])[:2] == ["epoch", "seed"]
+    assert [(r["epoch"], r["eval_success"], r["q_mean"]) for r in rows] == [
+        ("1", "0.5", "-1.5"),
+        ("2", "0.5", ""),
+    ]
+
+
+def test_track_logs_to_weights_and_biases_or_is_refused_without_it(tmp_path, monkeypatch):
+    """--track: the run's config, each metric's seed mean and each seed's value per epoch,
+    env steps as the step; without wandb, ValueError naming track before anything runs."""
+    import sys
+    import types
+
+    from mjx_skills.training import trackers
+
+    calls = {"log": []}
+
+    class FakeRun:
+        def log(self, row, step):
+            calls["log"].append((step, row))
+
+        def finish(self):
+            calls["finished"] = True
+
+    def init(**kwargs):
+        calls["init"] = kwargs
+        return FakeRun()
+
+    monkeypatch.setitem(sys.modules, "wandb", types.SimpleNamespace(init=init))
+    run_dir = tmp_path / "transit" / "ddpg_her" / "20261203-120000"
+    run_dir.mkdir(parents=True)
+    writer = MetricsWriter(run_dir, track="proj", config={"method": "ddpg_her"})
+    writer.write(1, {"eval_success": np.array([0.0, 1.0]), "env_steps": np.array([800, 800])})
+    writer.close()
+    assert calls["init"]["project"] == "proj" and calls["init"]["config"] == {"method": "ddpg_her"}
+    assert calls["init"]["resume"] == "allow" and calls["finished"]
+    step, row = calls["log"][0]
+    assert step == 800 and row["eval/success"] == 0.5 and row["seed_1/eval/success"] == 1.0
+    monkeypatch.setitem(sys.modules, "wandb", None)  # not installed
+    with pytest.raises(ValueError, match="track: .*pip install wandb"):
+        trackers.check_track(True)
+    trackers.check_track(False)
+
+
 def test_the_eta_counts_from_the_second_epoch(monkeypatch):
     """The first epoch of a process holds the compile: after `restart_clock` the bar's rate
     (and so its ETA) is that of the epochs since, not an average over the compile."""

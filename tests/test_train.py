@@ -197,6 +197,8 @@ def test_counters_are_the_x_axes(tmp_path):
         (["--epochs", "0"], "epochs"),
         (["--resume", "/nonexistent/run"], "not a run directory"),
         (["--resume", "/nonexistent/run", "--task", "transit"], "--resume takes only --epochs"),
+        (["ddpg_her", "--task", "transit", "--track"], "needs wandb: pip install wandb"),
+        (["ddpg_her", "--wandb-project", ""], "wandb_project"),
     ],
 )
 def test_cli_bad_input_is_a_clear_error(argv, message, capsys):

@@ -35,10 +35,15 @@ class TrainConfig:
     out: str = "runs"
     """Results go to OUT/<task>/<method>/<timestamp>/."""
     progress: bool = True  # draw a progress bar
+    track: bool = False
+    """Also log to Weights & Biases (`pip install wandb`; WANDB_MODE=offline keeps it local)."""
+    wandb_project: str = "mjx_skills"
+    """The W&B project `track` logs to."""
 
     def __post_init__(self) -> None:
         check_numbers(self)
         _check(bool(self.task), "task", "must name an env")
+        _check(bool(self.wandb_project), "wandb_project", "must name a W&B project")
         _check(self.seeds < SEED_LIMIT, "seeds", "must be < 2**32 (32-bit keys)")
         _check(self.seed + self.seeds <= SEED_LIMIT, "seed", "seed + seeds over 2**32 (keys)")
         for name in (

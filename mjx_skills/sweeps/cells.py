@@ -31,7 +31,13 @@ from mjx_skills.core.paths import CHECKOUT
 
 STORE = CHECKOUT / "experiments" / "results" / "cells"
 """The committed store of the checkout the package runs from (`sweep --store` for another)."""
-VOLATILE = {("train", "out"), ("train", "progress"), ("train", "checkpoint_every")}
+VOLATILE = {
+    ("train", "out"),
+    ("train", "progress"),
+    ("train", "checkpoint_every"),
+    ("train", "track"),
+    ("train", "wandb_project"),
+}
 """Config fields that do not change a run's results."""
 FILES = ("definition.json", "metrics.jsonl", "made_by.json")
 """A stored cell's files, each with its SHA-256 in its `CHECKSUMS`."""

@@ -1,12 +1,17 @@
-"""Metrics as JSONL (one line per epoch per seed) and TensorBoard events; progress bar.
+"""Metrics as JSONL (one line per epoch per seed) and CSV; TensorBoard and W&B through
+`trackers`; progress bar.
 
-The metrics.jsonl line is the product: TensorBoard and the progress bar are optional, and
-when either fails (no tensorboardX, an unwritable tb/ directory, a full disk, a broken
-terminal) one warning is logged and the run carries on without it.
+The metrics.jsonl line is the product; metrics.csv holds the same rows as a table (written
+whole when the writer closes, so it always matches the JSONL). TensorBoard, W&B and the
+progress bar are optional, and when one fails (no tensorboardX, an unwritable tb/
+directory, a full disk, a broken terminal) one warning is logged and the run carries on
+without it.
 """
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 import logging
 from pathlib import Path
@@ -23,14 +28,24 @@ class MetricsWriter:
     """Appends to RUN_DIR/metrics.jsonl; on resume, drops lines past the restored epoch (and
     a half-written last line a crash left) so that the file reads as one uninterrupted run."""
 
-    def __init__(self, run_dir: Path, resume_from_epoch: int = 0):
+    def __init__(
+        self,
+        run_dir: Path,
+        resume_from_epoch: int = 0,
+        track: str | None = None,
+        config: dict | None = None,
+    ):
+        """`track`: a Weights & Biases project to log to as well (`trackers.WandB`; its
+        `config`: the run's)."""
+        from mjx_skills.training.trackers import Sinks, open_sinks
+
         self.path = Path(run_dir) / "metrics.jsonl"
         if self.path.exists():
             lines = read_jsonl_lines(self.path)
             kept = [text for text, row in lines if row["epoch"] <= resume_from_epoch]
             write_text_atomic(self.path, "".join(line + "\n" for line in kept))
         self._file = self.path.open("a")
-        self._tb = _summary_writer(Path(run_dir) / "tb")
+        self._sinks = Sinks(open_sinks(Path(run_dir), track, config or {}))
 
     def write(self, epoch: int, metrics: dict[str, np.ndarray], **common) -> None:
         """metrics: name -> (n_seeds,) array; one JSON line per seed. Integer metrics (the
@@ -41,41 +56,27 @@ class MetricsWriter:
             row.update({k: _scalar(v[seed]) for k, v in sorted(metrics.items())})
             self._file.write(json.dumps(row) + "\n")
         self._file.flush()
-        if self._tb is not None:
-            x = int(np.max(metrics["env_steps"])) if "env_steps" in metrics else epoch
-            try:
-                for name, value in metrics.items():
-                    self._tb.add_scalar(name, float(np.mean(value)), x)
-                self._tb.flush()
-            except Exception as err:  # noqa: BLE001 - optional: any failure, the run goes on
-                log.warning("TensorBoard logging failed (%s); going on without it", err)
-                self._close_tb()
+        self._sinks.log(epoch, metrics)
 
     def close(self) -> None:
         self._file.close()
-        self._close_tb()
-
-    def _close_tb(self) -> None:
-        tb, self._tb = self._tb, None
-        if tb is not None:
-            try:
-                tb.close()
-            except Exception:  # noqa: BLE001 - already warned, or closing at the end
-                pass
+        self._sinks.close()
+        try:
+            write_csv(self.path)
+        except (OSError, ValueError) as err:  # the JSONL is the record; the CSV a view of it
+            log.warning("metrics.csv was not written (%s); metrics.jsonl holds the rows", err)
 
 
-def _summary_writer(directory: Path):
-    """A tensorboardX SummaryWriter on `directory`, or None: not installed (silently, it is
-    optional) or failing to start (warned)."""
-    try:
-        from tensorboardX import SummaryWriter
-    except ImportError:
-        return None
-    try:
-        return SummaryWriter(str(directory))
-    except Exception as err:  # noqa: BLE001 - an unwritable tb/ must not stop the run
-        log.warning("TensorBoard logging is off: %s cannot be written (%s)", directory, err)
-        return None
+def write_csv(jsonl: Path) -> Path:
+    """metrics.csv beside metrics.jsonl: its rows, epoch and seed first, then every other
+    column in order (a metric a row lacks is empty), written whole."""
+    rows = read_jsonl(jsonl)
+    keys = sorted({k for row in rows for k in row} - {"epoch", "seed"})
+    table = io.StringIO(newline="")
+    writer = csv.DictWriter(table, fieldnames=["epoch", "seed", *keys])
+    writer.writeheader()
+    writer.writerows(rows)
+    return write_text_atomic(jsonl.with_suffix(".csv"), table.getvalue())
 
 
 def _scalar(x: np.ndarray) -> int | float:

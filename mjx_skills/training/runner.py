@@ -28,6 +28,7 @@ from mjx_skills.training.checkpoint import Checkpoints
 from mjx_skills.training.epoch import build, committed, host_metrics
 from mjx_skills.training.interrupt import deferred_stop
 from mjx_skills.training.metrics_log import MetricsWriter, progress_bar, read_metrics
+from mjx_skills.training.trackers import check_track
 
 
 @dataclasses.dataclass(frozen=True)
@@ -155,6 +156,7 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     # a missing library fails here too, before a run directory is made.
     spec = methods.get(args.method)
     aux = spec.load_aux(options)
+    check_track(args.train.track)  # wandb missing: refused before a run directory is made
     if run_dir is None:
         run_dir = new_run_dir(args)
         save_config(run_dir, args)
@@ -173,7 +175,8 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
         _say_where_it_resumes(run_dir, start, cfg.epochs)
     if extended:
         save_config(run_dir, args)
-    writer = MetricsWriter(run_dir, resume_from_epoch=start)
+    track = cfg.wandb_project if cfg.track else None
+    writer = MetricsWriter(run_dir, start, track, config_dict(args) if track else None)
     steps_per_epoch = cfg.envs * cfg.cycles * env.episode_length
     bar = progress_bar(cfg.epochs, start, enabled=cfg.progress, desc=f"{cfg.task}/{args.method}")
     bar.set_postfix_str("compiling the epoch (the first one takes longer)")
