@@ -70,11 +70,17 @@ def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
     held = config.grasp_held_start_prob if name == "grasp" else 0.0
     previous = _latest_run(work, name)
     args = RunArgs(
-        train=TrainConfig(task=name, epochs=getattr(config, f"{name}_epochs"), seed=config.seed,
-                          replay_capacity=200_000, out=str(work), progress=progress),
+        train=TrainConfig(
+            task=name,
+            epochs=getattr(config, f"{name}_epochs"),
+            seed=config.seed,
+            replay_capacity=200_000,
+            out=str(work),
+            progress=progress,
+        ),
         env=EnvConfig(held_start_prob=held),
         resume=str(previous) if previous else None,
-    )  # fmt: skip
+    )
     run_dir, carry = train_and_keep(args)
     if logged_epochs(run_dir) < args.train.epochs:  # Ctrl-C or SIGTERM: it saved and said so
         raise KeyboardInterrupt
@@ -87,8 +93,11 @@ def skill_success(name: str, agent, episodes: int, seed: int) -> float:
     env = library.skill_envs((name,))[0]
     train = TrainConfig(task=name, eval_episodes=episodes)
     learner = make_ddpg_her(env, train, DDPGConfig())
-    evaluate = jax.jit(lambda a, k: rollout.run_episodes(env, learner.evaluate(a, None), k,
-                                                          episodes)[1].metrics["success"])  # fmt: skip
+    evaluate = jax.jit(
+        lambda a, k: rollout.run_episodes(env, learner.evaluate(a, None), k, episodes)[1].metrics[
+            "success"
+        ]
+    )
     return float(jnp.mean(evaluate(agent, jax.random.PRNGKey(10_000 + seed))))
 
 
@@ -133,10 +142,20 @@ def fit_library(names, agents, data, config: LibraryConfig, progress: bool):
     y_dyn = (delta - d_norm.mean[:, None]) / d_norm.std[:, None]
 
     def split(w_all, y):
-        tr = {"o": o[:, : N - n_val], "g": g[:, : N - n_val], "y": y[:, : N - n_val],
-              "w": w_all[:, : N - n_val], "dims": dims}  # fmt: skip
-        va = {"o": o[:, N - n_val :], "g": g[:, N - n_val :], "y": y[:, N - n_val :],
-              "w": w_all[:, N - n_val :], "dims": dims}  # fmt: skip
+        tr = {
+            "o": o[:, : N - n_val],
+            "g": g[:, : N - n_val],
+            "y": y[:, : N - n_val],
+            "w": w_all[:, : N - n_val],
+            "dims": dims,
+        }
+        va = {
+            "o": o[:, N - n_val :],
+            "g": g[:, N - n_val :],
+            "y": y[:, N - n_val :],
+            "w": w_all[:, N - n_val :],
+            "dims": dims,
+        }
         return jax.tree.map(jnp.asarray, tr), jax.tree.map(jnp.asarray, va)
 
     keys = jax.random.split(jax.random.PRNGKey(config.seed + 7), K)
@@ -144,11 +163,27 @@ def fit_library(names, agents, data, config: LibraryConfig, progress: bool):
     bar = tqdm(total=2 * config.fit_epochs, desc="fit models", disable=not progress)
     tick = lambda i, val: bar.update(1)
     dyn_tr, dyn_va = split(success.astype(np.float32), y_dyn)
-    dyn, dyn_hist = fit.fit(dyn0, dyn_tr, dyn_va, fit.dynamics_loss(obs_dim, config.model_hidden),
-                            config.model_lr, config, keys, tick)  # fmt: skip
+    dyn, dyn_hist = fit.fit(
+        dyn0,
+        dyn_tr,
+        dyn_va,
+        fit.dynamics_loss(obs_dim, config.model_hidden),
+        config.model_lr,
+        config,
+        keys,
+        tick,
+    )
     clf_tr, clf_va = split(np.ones((K, N), np.float32), success.astype(np.float32))
-    clf, clf_hist = fit.fit(clf0, clf_tr, clf_va, fit.classifier_loss(config.classifier_hidden),
-                            config.classifier_lr, config, jax.vmap(lambda k: jax.random.fold_in(k, 1))(keys), tick)  # fmt: skip
+    clf, clf_hist = fit.fit(
+        clf0,
+        clf_tr,
+        clf_va,
+        fit.classifier_loss(config.classifier_hidden),
+        config.classifier_lr,
+        config,
+        jax.vmap(lambda k: jax.random.fold_in(k, 1))(keys),
+        tick,
+    )
     bar.close()
     lib = _assemble(
         names, agents, dyn, clf, in_norm, d_norm, dims, x, s_T, success, N - n_val, config
@@ -177,12 +212,20 @@ def _assemble(names, agents, dyn, clf, in_norm, d_norm, dims, x, s_T, success, n
         key_mask[k, list(env.memory_dims) + list(range(obs_dim, x.shape[-1]))] = True
     policy = jax.tree.map(lambda *p: jnp.stack(p), *agents)
     return library.SkillLibrary(
-        policy=policy, dynamics=dyn, classifier=clf, input_norm=in_norm, delta_norm=d_norm,
-        state_mask=jnp.asarray(dims > 0), memory_key_mask=jnp.asarray(key_mask),
-        memory_keys=jnp.asarray(keys), memory_next=jnp.asarray(nxt),
-        memory_valid=jnp.asarray(valid), names=tuple(names), ddpg_config=DDPGConfig(),
+        policy=policy,
+        dynamics=dyn,
+        classifier=clf,
+        input_norm=in_norm,
+        delta_norm=d_norm,
+        state_mask=jnp.asarray(dims > 0),
+        memory_key_mask=jnp.asarray(key_mask),
+        memory_keys=jnp.asarray(keys),
+        memory_next=jnp.asarray(nxt),
+        memory_valid=jnp.asarray(valid),
+        names=tuple(names),
+        ddpg_config=DDPGConfig(),
         config=config,
-    )  # fmt: skip
+    )
 
 
 def evaluate_models(lib: library.SkillLibrary, x, s_T, success) -> dict[str, dict[str, float]]:
@@ -196,19 +239,27 @@ def evaluate_models(lib: library.SkillLibrary, x, s_T, success) -> dict[str, dic
         pos = env.layout["object" if env.goal_is_object else "grip"]
         ok = success[k].astype(bool)
         model = np.asarray(jax.jit(lib.next_state)(ids, obs, goal))
-        memory = np.concatenate([np.asarray(jax.jit(lib.recall)(ids[i : i + 512], obs[i : i + 512], goal[i : i + 512]))
-                                 for i in range(0, obs.shape[0], 512)])  # fmt: skip
+        memory = np.concatenate(
+            [
+                np.asarray(
+                    jax.jit(lib.recall)(ids[i : i + 512], obs[i : i + 512], goal[i : i + 512])
+                )
+                for i in range(0, obs.shape[0], 512)
+            ]
+        )
         prob = np.asarray(jax.jit(lib.success_prob)(ids, obs, goal))
         out[name] = {
             "memory_error_cm": _position_error_cm(memory[ok], s_T[k][ok], pos),
             "model_error_cm": _position_error_cm(model[ok], s_T[k][ok], pos),
             # The trivial predictor: a successful run ends at its goal (within the threshold).
-            "goal_error_cm": float(100 * np.mean(np.linalg.norm(
-                np.asarray(goal)[ok] - s_T[k][ok][:, pos], axis=-1))),
+            "goal_error_cm": float(
+                100 * np.mean(np.linalg.norm(np.asarray(goal)[ok] - s_T[k][ok][:, pos], axis=-1))
+            ),
             "classifier_accuracy": float(np.mean((prob > 0.5) == ok)),
-            "classifier_auc": fit.auc(prob, ok), "held_out": int(len(ok)),
+            "classifier_auc": fit.auc(prob, ok),
+            "held_out": int(len(ok)),
             "held_out_successes": int(ok.sum()),
-        }  # fmt: skip
+        }
     return out
 
 
@@ -237,8 +288,11 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
         success[name] = skill_success(name, agent, config.skill_eval_episodes, config.seed)
         agents.append(agent)
         timings[f"train_{name}_s"] = round(time.time() - t0, 1)
-        print(f"{name}: success {success[name]:.3f} on {config.skill_eval_episodes} fresh "
-              f"episodes ({timings[f'train_{name}_s']} s)", file=sys.stderr)  # fmt: skip
+        print(
+            f"{name}: success {success[name]:.3f} on {config.skill_eval_episodes} fresh "
+            f"episodes ({timings[f'train_{name}_s']} s)",
+            file=sys.stderr,
+        )
     t0 = time.time()
     for name, agent in zip(SKILLS, agents, strict=True):
         data[name] = collect_skill(name, agent, config, args.progress)
@@ -247,44 +301,67 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
     lib, metrics, history = fit_library(SKILLS, agents, data, config, args.progress)
     timings["fit_s"] = round(time.time() - t0, 1)
     manifest = {
-        "skill_success": success, "skill_runs": {n: str(r) for n, r in runs.items()},
-        "models": metrics, "timings_s": timings,
+        "skill_success": success,
+        "skill_runs": {n: str(r) for n, r in runs.items()},
+        "models": metrics,
+        "timings_s": timings,
         "memory_size": int(lib.memory_keys.shape[1]),
-        "samples": {n: {"total": int(len(d["success"])), "successes": int(d["success"].sum()),
-                        "success_by_start": _by_source(d)} for n, d in data.items()},
-        "dims": {n: {"state_dims": list(e.state_dims), "memory_dims": list(e.memory_dims),
-                     "param_dim": e.param_dim} for n, e in zip(SKILLS, lib.envs, strict=True)},
+        "samples": {
+            n: {
+                "total": int(len(d["success"])),
+                "successes": int(d["success"].sum()),
+                "success_by_start": _by_source(d),
+            }
+            for n, d in data.items()
+        },
+        "dims": {
+            n: {
+                "state_dims": list(e.state_dims),
+                "memory_dims": list(e.memory_dims),
+                "param_dim": e.param_dim,
+            }
+            for n, e in zip(SKILLS, lib.envs, strict=True)
+        },
         "fit_history": history,
-    }  # fmt: skip
+    }
     return library.save(lib, out, manifest, made_by)
 
 
 def _by_source(d: dict[str, np.ndarray]) -> dict[str, float]:
-    return {SKILLS[i] + "_start": float(d["success"][d["source"] == i].mean())
-            for i in np.unique(d["source"])}  # fmt: skip
+    return {
+        SKILLS[i] + "_start": float(d["success"][d["source"] == i].mean())
+        for i in np.unique(d["source"])
+    }
 
 
 def table_rows(directory: Path) -> list[dict]:
     """Table 5.1 rows (one per skill) from a library's manifest, the thesis's beside ours."""
     manifest = library.read_manifest(directory)
     return [
-        {"skill": name, "memory_error_cm": f"{m['memory_error_cm']:.2f}",
-         "model_error_cm": f"{m['model_error_cm']:.2f}",
-         "goal_error_cm": f"{m['goal_error_cm']:.2f}" if "goal_error_cm" in m else "",
-         "thesis_memory_cm": THESIS_CM[name][0], "thesis_model_cm": THESIS_CM[name][1],
-         "classifier_accuracy": f"{m['classifier_accuracy']:.3f}",
-         "classifier_auc": f"{m['classifier_auc']:.3f}",
-         "samples": manifest["samples"][name]["total"],
-         "anchor": manifest["library"].get("anchor", "start"),
-         "skill_success": f"{manifest['skill_success'][name]:.3f}"}
+        {
+            "skill": name,
+            "memory_error_cm": f"{m['memory_error_cm']:.2f}",
+            "model_error_cm": f"{m['model_error_cm']:.2f}",
+            "goal_error_cm": f"{m['goal_error_cm']:.2f}" if "goal_error_cm" in m else "",
+            "thesis_memory_cm": THESIS_CM[name][0],
+            "thesis_model_cm": THESIS_CM[name][1],
+            "classifier_accuracy": f"{m['classifier_accuracy']:.3f}",
+            "classifier_auc": f"{m['classifier_auc']:.3f}",
+            "samples": manifest["samples"][name]["total"],
+            "anchor": manifest["library"].get("anchor", "start"),
+            "skill_success": f"{manifest['skill_success'][name]:.3f}",
+        }
         for name, m in manifest["models"].items()
-    ]  # fmt: skip
+    ]
 
 
 def write_table(directory: Path | list[Path], path: Path = TABLE) -> Path:
     """Table 5.1 of one library (or several: one block of rows each) as CSV."""
-    rows = [r for d in ([directory] if isinstance(directory, Path) else directory)
-            for r in table_rows(d)]  # fmt: skip
+    rows = [
+        r
+        for d in ([directory] if isinstance(directory, Path) else directory)
+        for r in table_rows(d)
+    ]
     path.parent.mkdir(parents=True, exist_ok=True)
     table = io.StringIO(newline="")
     w = csv.DictWriter(table, fieldnames=list(rows[0]))
@@ -297,8 +374,9 @@ def main(argv: list[str] | None = None) -> None:
     compile_cache.enable()
     use_float32()
     try:
-        args = tyro.cli(SkillsArgs, args=sys.argv[1:] if argv is None else argv,
-                        description=__doc__)  # fmt: skip
+        args = tyro.cli(
+            SkillsArgs, args=sys.argv[1:] if argv is None else argv, description=__doc__
+        )
         if args.table:
             print(f"wrote {write_table(Path(args.out))}")
             return

@@ -97,8 +97,15 @@ def load_trained(run_dir: Path, physics: str = "native") -> TrainedRun:
         epoch, carry = checkpoints.restore(like)
     finally:
         checkpoints.close()
-    return TrainedRun(run_dir=run_dir, args=args, env=env, learner=learner, aux=aux,
-                      agents=carry.agent, epoch=epoch)  # fmt: skip
+    return TrainedRun(
+        run_dir=run_dir,
+        args=args,
+        env=env,
+        learner=learner,
+        aux=aux,
+        agents=carry.agent,
+        epoch=epoch,
+    )
 
 
 def seed_agent(run: TrainedRun, seed: int) -> Any:
@@ -185,11 +192,17 @@ def evaluate_run(run_dir: Path, episodes: int, physics: str, seed: int) -> list[
     success, distance = evaluate(run, key, episodes)
     logged = logged_eval_success(run_dir, run.epoch, run.args.train.seeds)
     return [
-        {"seed": s, "success": float(success[s]), "distance": float(distance[s]),
-         "episodes": episodes, "physics": physics, "epoch": run.epoch,
-         "run_eval_success": logged[s]}
+        {
+            "seed": s,
+            "success": float(success[s]),
+            "distance": float(distance[s]),
+            "episodes": episodes,
+            "physics": physics,
+            "epoch": run.epoch,
+            "run_eval_success": logged[s],
+        }
         for s in range(run.args.train.seeds)
-    ]  # fmt: skip
+    ]
 
 
 def summarize(rows: list[dict]) -> dict:

@@ -48,13 +48,22 @@ def actor_module(state: DDPGState, config: DDPGConfig) -> Actor:
 
 
 def _actor_module(act_dim: int, bounds: str, config: DDPGConfig, views=None) -> Actor:
-    return Actor(act_dim=act_dim, hidden=tuple(config.hidden),
-                 layer_norm=config.layer_norm, squash=bounds == "tanh", views=views)  # fmt: skip
+    return Actor(
+        act_dim=act_dim,
+        hidden=tuple(config.hidden),
+        layer_norm=config.layer_norm,
+        squash=bounds == "tanh",
+        views=views,
+    )
 
 
 def critic_module(config: DDPGConfig, views=None) -> Critic:
-    return Critic(hidden=tuple(config.hidden), layer_norm=config.layer_norm,
-                  ensemble=config.critics, views=views)  # fmt: skip
+    return Critic(
+        hidden=tuple(config.hidden),
+        layer_norm=config.layer_norm,
+        ensemble=config.critics,
+        views=views,
+    )
 
 
 def pessimistic(q: jax.Array, config: DDPGConfig) -> jax.Array:
@@ -185,8 +194,13 @@ def normalize_batch(
     `obs`, `next_obs` and `goal`, raw `action` and `reward`."""
     o, g = normalize_inputs(state, batch["obs"], batch["goal"], config)
     o2 = normalizer.normalize(state.obs_norm, batch["next_obs"], config.norm_clip, config.norm_eps)
-    out = {"obs": o, "next_obs": o2, "goal": g, "action": batch["action"],
-           "reward": batch["reward"]}  # fmt: skip
+    out = {
+        "obs": o,
+        "next_obs": o2,
+        "goal": g,
+        "action": batch["action"],
+        "reward": batch["reward"],
+    }
     return {**out, **{k: batch[k] for k in ("terminal", "demo", "discount") if k in batch}}
 
 
@@ -333,8 +347,12 @@ def _step(
     new_state = advance(
         state, actor_params, critic_params, actor_opt_state, critic_opt_state, config
     )
-    metrics = {"critic_loss": critic_value, "actor_loss": actor_value, "q_mean": jnp.mean(q),
-               **(aux or {})}  # fmt: skip
+    metrics = {
+        "critic_loss": critic_value,
+        "actor_loss": actor_value,
+        "q_mean": jnp.mean(q),
+        **(aux or {}),
+    }
     return new_state, metrics
 
 

@@ -64,11 +64,14 @@ def init(key, obs_dim: int, goal_dim: int, n_skills: int, config: DDPGConfig) ->
     """`n_skills` discrete choices (skills, or (cube, skill) pairs) over a `goal_dim` task.
     Raises ValueError for `config.critics` > 1 (this per-skill critic has one head)."""
     if config.critics != 1:
-        raise ValueError(f"invalid config value for 'critics': the per-skill critic of PAS and "
-                         f"MPAS is one network (--pas.critic joint takes more), got "
-                         f"{config.critics}")  # fmt: skip
-    return ddpg.init(key, obs_dim, goal_dim, n_skills * PARAM_DIM, config,
-                     critic_act_dim=n_skills + SKILL_GOAL)  # fmt: skip
+        raise ValueError(
+            f"invalid config value for 'critics': the per-skill critic of PAS and "
+            f"MPAS is one network (--pas.critic joint takes more), got "
+            f"{config.critics}"
+        )
+    return ddpg.init(
+        key, obs_dim, goal_dim, n_skills * PARAM_DIM, config, critic_act_dim=n_skills + SKILL_GOAL
+    )
 
 
 def _all_goals(state, actor_params, obs, o, g, goals: SkillGoals, config):
@@ -142,9 +145,12 @@ def update(
 ):
     """n gradient steps, one per batch (as `ddpg.update`); batches also hold `allowed` and
     `next_allowed` (n, B, K) bool."""
-    nbatches = {**ddpg.normalize_batch(state, batches, config),
-                **{k: batches[k] for k in ("allowed", "next_allowed")},
-                "raw_obs": batches["obs"], "raw_next_obs": batches["next_obs"]}  # fmt: skip
+    nbatches = {
+        **ddpg.normalize_batch(state, batches, config),
+        **{k: batches[k] for k in ("allowed", "next_allowed")},
+        "raw_obs": batches["obs"],
+        "raw_next_obs": batches["next_obs"],
+    }
     state, metrics = jax.lax.scan(lambda s, nb: _step(s, nb, goals, config), state, nbatches)
     return ddpg.cycle_targets(state, config), metrics
 

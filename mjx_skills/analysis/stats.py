@@ -42,8 +42,12 @@ def interval(values: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray,
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # arch's notice about RandomState
             _, ci = rly.get_interval_estimates(
-                {"x": values}, lambda s: s.mean(axis=0), reps=REPS,
-                confidence_interval_size=CONFIDENCE, random_state=np.random.RandomState(seed))  # fmt: skip
+                {"x": values},
+                lambda s: s.mean(axis=0),
+                reps=REPS,
+                confidence_interval_size=CONFIDENCE,
+                random_state=np.random.RandomState(seed),
+            )
     finally:
         np.random.set_state(saved)  # noqa: NPY002
     low, high = ci["x"]
@@ -111,10 +115,18 @@ def summarize(scores: np.ndarray, wall_s: float = 0.0) -> Summary:
     curve, low, high = interval(scores)
     per_seed = np.stack([scores[:, -LAST:].mean(axis=1), scores.mean(axis=1)], axis=1)
     point, lo, hi = interval(per_seed)
-    return Summary(seeds=scores.shape[0], epochs=scores.shape[1], curve=curve, curve_low=low,
-                   curve_high=high, last=(point[0], lo[0], hi[0]), auc=(point[1], lo[1], hi[1]),
-                   reach_90=first_reaching(curve, 0.9), reach_50=first_reaching(curve, 0.5),
-                   wall_s=wall_s)  # fmt: skip
+    return Summary(
+        seeds=scores.shape[0],
+        epochs=scores.shape[1],
+        curve=curve,
+        curve_low=low,
+        curve_high=high,
+        last=(point[0], lo[0], hi[0]),
+        auc=(point[1], lo[1], hi[1]),
+        reach_90=first_reaching(curve, 0.9),
+        reach_50=first_reaching(curve, 0.5),
+        wall_s=wall_s,
+    )
 
 
 def scores_from_rows(rows: list[dict], key: str = "eval_success") -> np.ndarray:

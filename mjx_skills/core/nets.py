@@ -60,8 +60,10 @@ def object_set(obs: jax.Array, goal: jax.Array, views: Views, *rest: jax.Array) 
     """(..., obs_dim), (..., goal_dim) [, (..., d) shared by all] -> (..., n, view + goal_dim
     / n [+ d]): object k's view, its part of the goal and what every object shares."""
     n = len(views)
-    parts = [jnp.stack([obs[..., jnp.asarray(v)] for v in views], axis=-2),
-             goal.reshape(*goal.shape[:-1], n, -1)]  # fmt: skip
+    parts = [
+        jnp.stack([obs[..., jnp.asarray(v)] for v in views], axis=-2),
+        goal.reshape(*goal.shape[:-1], n, -1),
+    ]
     parts += [jnp.broadcast_to(r[..., None, :], (*r.shape[:-1], n, r.shape[-1])) for r in rest]
     return jnp.concatenate(parts, axis=-1)
 

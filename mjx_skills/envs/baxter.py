@@ -162,11 +162,20 @@ class BaxterEnv(RobotTask):
         zero = jnp.zeros((), jnp.float32)
         info = {"step": jnp.zeros((), jnp.int32), "start_physics": physics}
         state = State(
-            physics=physics, obs=jnp.zeros(self.obs_dim), achieved_goal=jnp.zeros(self.goal_dim),
-            desired_goal=goal, reward=zero, done=jnp.zeros((), bool),
-            metrics={"success": zero, "distance": zero, "invalid_actions": zero, "physics_resets": zero},
+            physics=physics,
+            obs=jnp.zeros(self.obs_dim),
+            achieved_goal=jnp.zeros(self.goal_dim),
+            desired_goal=goal,
+            reward=zero,
+            done=jnp.zeros((), bool),
+            metrics={
+                "success": zero,
+                "distance": zero,
+                "invalid_actions": zero,
+                "physics_resets": zero,
+            },
             info=info,
-        )  # fmt: skip
+        )
         return self._observe(state, physics, state.metrics)
 
     def training_start(self, key, grip, object_pos, goal):
@@ -190,9 +199,13 @@ class BaxterEnv(RobotTask):
         obs = self.observation(sens)
         info = {**state.info, "grasped": self.grasped(obs)}
         return state.replace(
-            physics=physics, obs=obs, achieved_goal=achieved,
-            reward=self.compute_reward(achieved, state.desired_goal), metrics=metrics, info=info,
-        )  # fmt: skip
+            physics=physics,
+            obs=obs,
+            achieved_goal=achieved,
+            reward=self.compute_reward(achieved, state.desired_goal),
+            metrics=metrics,
+            info=info,
+        )
 
     def action_to_controls(self, grip_pos: jax.Array, action: jax.Array):
         """-> (finger ctrl (2,), mocap target (3,)): `BaxterRobot.action_to_controls`."""

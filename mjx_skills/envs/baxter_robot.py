@@ -26,9 +26,17 @@ XML_DIR = Path(__file__).resolve().parents[2] / "xml"
 
 # Sensor names of the observation, in order, as declared in xml/baxter.xml and the scenes.
 SENSORS = (
-    "grip_pos", "grip_linvel", "finger_l_pos", "finger_r_pos", "finger_l_vel", "finger_r_vel",
-    "object_pos", "object_quat", "object_linvel", "object_angvel",
-)  # fmt: skip
+    "grip_pos",
+    "grip_linvel",
+    "finger_l_pos",
+    "finger_r_pos",
+    "finger_l_vel",
+    "finger_r_vel",
+    "object_pos",
+    "object_quat",
+    "object_linvel",
+    "object_angvel",
+)
 
 # Observation layout (BaxterEnv.observation), used by skills, scripted controllers and tests.
 OBS_GRIP = slice(0, 3)
@@ -143,12 +151,18 @@ class BaxterRobot:
         finger_vel = jnp.concatenate([sens["finger_l_vel"], sens["finger_r_vel"]], axis=-1)
         return jnp.concatenate(
             [
-                sens["grip_pos"], sens["object_pos"], sens["object_pos"] - sens["grip_pos"],
-                fingers, quat_to_euler(sens["object_quat"]), sens["object_linvel"],
-                sens["object_angvel"], sens["grip_linvel"], finger_vel,
+                sens["grip_pos"],
+                sens["object_pos"],
+                sens["object_pos"] - sens["grip_pos"],
+                fingers,
+                quat_to_euler(sens["object_quat"]),
+                sens["object_linvel"],
+                sens["object_angvel"],
+                sens["grip_linvel"],
+                finger_vel,
             ],
             axis=-1,
-        )  # fmt: skip
+        )
 
     def observe(self, physics: PhysicsState) -> jax.Array:
         """The one-cube observation (25,) of a physics state (`observation`)."""

@@ -256,14 +256,22 @@ class NativeBackend:
         with self._lock:
             if self._pool is None:
                 states, sensors = rollout.rollout(
-                    self.model, self._datas[0], state64, control64,
-                    control_spec=self.control_spec, nstep=n_substeps,
-                )  # fmt: skip
+                    self.model,
+                    self._datas[0],
+                    state64,
+                    control64,
+                    control_spec=self.control_spec,
+                    nstep=n_substeps,
+                )
             else:
                 states, sensors = self._pool.rollout(
-                    self.model, self._datas, state64, control64,
-                    control_spec=self.control_spec, nstep=n_substeps,
-                )  # fmt: skip
+                    self.model,
+                    self._datas,
+                    state64,
+                    control64,
+                    control_spec=self.control_spec,
+                    nstep=n_substeps,
+                )
         new_state = states[:, -1].astype(np.float32).reshape(*lead, self.nstate)
         sensordata = sensors[:, -1].astype(np.float32).reshape(*lead, -1)
         if not previous:

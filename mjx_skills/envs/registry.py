@@ -33,8 +33,15 @@ ENVS: dict[str, type] = {**BAXTER, **FETCH}
 ROBOTS: dict[str, type] = {BaxterRobot.name: BaxterRobot, FetchRobot.name: FetchRobot}
 """Robot name -> its class, an `envs.robot.Robot` (each task declares one: `robot_name`)."""
 SKILLS = ("transit", "grasp", "transfer")
-TASKS = ("pick_move", "put_in_container", "put_on", "take_out", "container_wall",
-         "pick_move_two", "two_in_container")  # fmt: skip
+TASKS = (
+    "pick_move",
+    "put_in_container",
+    "put_on",
+    "take_out",
+    "container_wall",
+    "pick_move_two",
+    "two_in_container",
+)
 
 
 SKILL_ROBOTS = {BAXTER["transit"].robot_name: SKILLS}

@@ -87,8 +87,11 @@ def clear_goals(env, obs: jax.Array, goal: jax.Array, clearance: float) -> jax.A
             taken = (_xy(g - cube) < clearance) & level
             shared = _xy(goals[..., j, :] - g) < clearance
             beside = (cube + clearance * off).at[..., 2].set(g[..., 2])
-            g = jnp.where(taken[..., None], beside,
-                          jnp.where(shared[..., None], g + 0.5 * clearance * side, g))  # fmt: skip
+            g = jnp.where(
+                taken[..., None],
+                beside,
+                jnp.where(shared[..., None], g + 0.5 * clearance * side, g),
+            )
         aimed.append(g)
     return jnp.stack(aimed, axis=-2)
 

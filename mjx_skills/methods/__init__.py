@@ -61,9 +61,11 @@ class Method:
 
     def unread_now(self, options: dict[str, Any]) -> dict[str, str]:
         """The options this method does not read with these option groups -> why."""
-        off = {path: f"--{path.split('.')[0]}.{switch.replace('_', '-')}, which is off"
-               for path, switch in self.unread_unless.items()
-               if not getattr(options[path.split(".")[0]], switch)}  # fmt: skip
+        off = {
+            path: f"--{path.split('.')[0]}.{switch.replace('_', '-')}, which is off"
+            for path, switch in self.unread_unless.items()
+            if not getattr(options[path.split(".")[0]], switch)
+        }
         instead = {path: f"it reads {flag} instead" for path, flag in self.unread.items()}
         return {**instead, **off}
 
@@ -115,8 +117,10 @@ def check_task(
     options = options or {}
     pas = options.get("pas")
     if pas is not None and pas.critic == "joint" and cubes != 1:
-        raise ValueError(f"--pas.critic joint (the thesis's critic) runs on one-cube tasks; "
-                         f"{task} has {cubes} cubes: use --pas.critic per_skill")  # fmt: skip
+        raise ValueError(
+            f"--pas.critic joint (the thesis's critic) runs on one-cube tasks; "
+            f"{task} has {cubes} cubes: use --pas.critic per_skill"
+        )
     if cubes == 1:
         given = {**options, "env": env or EnvConfig()}
         defaults = {**get(method).options, "env": EnvConfig()}
@@ -131,9 +135,11 @@ def check_task(
                     )
     search = options.get("search")
     if method == "ddpg_her_sl_bc" and search is not None and search.explorer != "search":
-        raise ValueError(f"ddpg_her_sl_bc clones the skills the look-ahead search drives; "
-                         f"--search.explorer {search.explorer} drives none, so nothing would be "
-                         f"cloned: use ddpg_her_sl for the {search.explorer} explorer")  # fmt: skip
+        raise ValueError(
+            f"ddpg_her_sl_bc clones the skills the look-ahead search drives; "
+            f"--search.explorer {search.explorer} drives none, so nothing would be "
+            f"cloned: use ddpg_her_sl for the {search.explorer} explorer"
+        )
 
 
 def check_library_robot(method: str, task: str, options: dict[str, Any] | None = None) -> None:
@@ -190,8 +196,10 @@ def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
         given, default = groups[group]
         if getattr(given, field) != getattr(default, field):
             flag = ("--" if group == "train" else f"--{group}.") + field.replace("_", "-")
-            raise ValueError(f"{method} does not read {flag} ({why}); "
-                             f"leave {flag} at its default {getattr(default, field)!r}")  # fmt: skip
+            raise ValueError(
+                f"{method} does not read {flag} ({why}); "
+                f"leave {flag} at its default {getattr(default, field)!r}"
+            )
 
 
 def _pas(name: str, label: str, description: str) -> Method:
@@ -267,12 +275,17 @@ THESIS_LIBRARY = "experiments/skill_library_thesis"
 PRESETS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
     "default": {},
     "thesis": {
-        "ddpg_her_sl": {"search": {"stall_memory": 0, "waypoint_share": 0.0,
-                                   "library_dir": THESIS_LIBRARY}},
-        **{name: {"pas": {"critic": "joint", "terminal_at_goal": False,
-                          "library_dir": THESIS_LIBRARY}} for name in ("pas", "mpas")},
+        "ddpg_her_sl": {
+            "search": {"stall_memory": 0, "waypoint_share": 0.0, "library_dir": THESIS_LIBRARY}
+        },
+        **{
+            name: {
+                "pas": {"critic": "joint", "terminal_at_goal": False, "library_dir": THESIS_LIBRARY}
+            }
+            for name in ("pas", "mpas")
+        },
     },
-}  # fmt: skip
+}
 """Named option sets by method and group, applied over the defaults (explicit flags win).
 'thesis': each method as the thesis formulates it, where our defaults depart from it by
 measurement (field by field, with what they change: docs/results.md, "Our defaults against the thesis's formulation"). DDPG+HER
@@ -285,8 +298,10 @@ def preset_options(method: str, preset: str = "default") -> dict[str, Any]:
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; valid: {', '.join(PRESETS)}")
     changes = PRESETS[preset].get(method, {})
-    return {group: dataclasses.replace(default, **changes.get(group, {}))
-            for group, default in spec.options.items()}  # fmt: skip
+    return {
+        group: dataclasses.replace(default, **changes.get(group, {}))
+        for group, default in spec.options.items()
+    }
 
 
 def get(name: str) -> Method:

@@ -34,8 +34,13 @@ def make_ddpg_her(env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig) -> Learner
     def update(agent, buffer, fresh: rollout.Episode, key):
         return her_update(agent, buffer, fresh, key, env, train.updates_per_cycle, ddpg)
 
-    return Learner(init=init, explore=explore, evaluate=evaluate,
-                   store=lambda episodes, records: episodes, update=update)  # fmt: skip
+    return Learner(
+        init=init,
+        explore=explore,
+        evaluate=evaluate,
+        store=lambda episodes, records: episodes,
+        update=update,
+    )
 
 
 @struct.dataclass
@@ -73,9 +78,17 @@ def her_update(
         jnp.concatenate([fresh.g, fresh.ag], axis=1).reshape(-1, env.goal_dim),
     )
     b = config.batch_size
-    batch = her.sample_batch(buffer, key, n_updates * b, env.compute_reward, config.her_strategy,
-                             config.relabel_prob, with_index=demo is not None,
-                             n_step=config.n_step, gamma=config.gamma)  # fmt: skip
+    batch = her.sample_batch(
+        buffer,
+        key,
+        n_updates * b,
+        env.compute_reward,
+        config.her_strategy,
+        config.relabel_prob,
+        with_index=demo is not None,
+        n_step=config.n_step,
+        gamma=config.gamma,
+    )
     if demo is not None:
         batch["demo"] = demo[batch.pop("episode"), batch.pop("step")]
     batches = jax.tree.map(lambda x: x.reshape(n_updates, b, *x.shape[1:]), batch)

@@ -89,10 +89,13 @@ def make_behaviour(
         own = lambda k, obs, goal: ddpg.explore(agent, k, obs, goal, ddpg_config)  # noqa: E731
 
     def init(key, n_envs):
-        return ExploreState(run=execution.idle(n_envs), last_grip=jnp.zeros((n_envs, 3)),
-                            obstacles=stalls.empty(n_envs, cfg.stall_memory),
-                            stalls=jnp.zeros((n_envs,), jnp.int32),
-                            obj=jnp.zeros((n_envs,), jnp.int32))  # fmt: skip
+        return ExploreState(
+            run=execution.idle(n_envs),
+            last_grip=jnp.zeros((n_envs, 3)),
+            obstacles=stalls.empty(n_envs, cfg.stall_memory),
+            stalls=jnp.zeros((n_envs,), jnp.int32),
+            obj=jnp.zeros((n_envs,), jnp.int32),
+        )
 
     def step(ps: ExploreState, key, state):
         k_coin, k_search, k_noise = jax.random.split(key, 3)
@@ -101,11 +104,20 @@ def make_behaviour(
         grip = obs[:, env.layout["grip"]]
         stall = jnp.zeros(run.active.shape, bool)
         if cfg.stall_memory:
-            stall = stalls.stalled(lib.names, run.skill, grip, ps.last_grip, run.goal, run.active,
-                                   run.steps, cfg.stall_step,
-                                   cfg.stall_ahead + cfg.stall_radius)  # fmt: skip
-            obstacles, count = stalls.remember(ps.obstacles, ps.stalls, grip, run.goal, stall,
-                                               cfg.stall_ahead)  # fmt: skip
+            stall = stalls.stalled(
+                lib.names,
+                run.skill,
+                grip,
+                ps.last_grip,
+                run.goal,
+                run.active,
+                run.steps,
+                cfg.stall_step,
+                cfg.stall_ahead + cfg.stall_radius,
+            )
+            obstacles, count = stalls.remember(
+                ps.obstacles, ps.stalls, grip, run.goal, stall, cfg.stall_ahead
+            )
             ps = ps.replace(obstacles=obstacles, stalls=count)
         views = object_views(env, obs)  # (B, n, 25)
         seen = lookahead.take_row(views, ps.obj)
@@ -127,10 +139,16 @@ def make_behaviour(
             where = where & ~at_goal & workable(env.grasped(views), at_goal, in_order)
         obstacles = ps.obstacles if cfg.stall_memory else None
         aimed = clear_goals(env, obs, task_goal, cfg.goal_clearance)  # (B, n, 3)
-        found = lookahead.search_where(lib, cfg, scored, where.reshape(-1),
-                                    views.reshape(B * n, -1), aimed.reshape(B * n, 3),
-                                    k_search,
-                                    None if obstacles is None else jnp.repeat(obstacles, n, 0))  # fmt: skip
+        found = lookahead.search_where(
+            lib,
+            cfg,
+            scored,
+            where.reshape(-1),
+            views.reshape(B * n, -1),
+            aimed.reshape(B * n, 3),
+            k_search,
+            None if obstacles is None else jnp.repeat(obstacles, n, 0),
+        )
         found = jax.tree.map(lambda x: x.reshape(B, n, *x.shape[1:]), found)
         obj = jnp.argmax(found.utility, axis=1).astype(jnp.int32)  # the best cube's plan
         all_pruned = jnp.all(found.all_pruned, axis=1)

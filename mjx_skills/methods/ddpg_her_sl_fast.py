@@ -112,9 +112,14 @@ def propose(
 
 
 def propose_any(
-    env: GoalEnv, lib: SkillLibrary, search: SearchConfig, obs: jax.Array, goal: jax.Array,
-    key: jax.Array, n: int,
-) -> tuple[jax.Array, jax.Array]:  # fmt: skip
+    env: GoalEnv,
+    lib: SkillLibrary,
+    search: SearchConfig,
+    obs: jax.Array,
+    goal: jax.Array,
+    key: jax.Array,
+    n: int,
+) -> tuple[jax.Array, jax.Array]:
     """`propose` for a scene of c cubes: obs (B, obs_dim), goal (B, 3c) -> actions
     (B, c n, A), ok (B, c n): n proposals per cube, each made on the scene's projection onto
     (gripper, that cube) towards that cube's part of the goal (`object_views`; moved
@@ -176,8 +181,9 @@ def make_ddpg_her_sl_fast(
         if search.explorer == "scripted" or not fast.pick_in_training:
             return base.explore(agent, lib, progress)  # the pick acts in evaluation only
         own = _noisy(chosen(agent, lib), ddpg)
-        return make_behaviour(agent, lib, progress.epoch, env, search, ddpg, own=own,
-                              success=progress.success)  # fmt: skip
+        return make_behaviour(
+            agent, lib, progress.epoch, env, search, ddpg, own=own, success=progress.success
+        )
 
     def evaluate(agent, lib):
         return rollout.stateless(chosen(agent, lib))
@@ -203,8 +209,11 @@ class Averaged:
         """The new online `agent`, folded in: averages <- weight averages + (1 - weight) its
         networks, leaf by leaf."""
         mix = lambda avg, online: optim.soft_update(avg, online, 1.0 - weight)  # noqa: E731
-        return Averaged(agent, mix(self.actor_params, agent.actor_params),
-                        mix(self.critic_params, agent.critic_params))  # fmt: skip
+        return Averaged(
+            agent,
+            mix(self.actor_params, agent.actor_params),
+            mix(self.critic_params, agent.critic_params),
+        )
 
     def view(self) -> DDPGState:
         """The agent with the averaged networks in the online ones' place."""

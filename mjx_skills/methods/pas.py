@@ -82,8 +82,13 @@ def option_goals(env: GoalEnv, envs) -> mpdqn.SkillGoals:
 
     def fn(params, obs):
         views = object_views(env, obs)
-        return jnp.concatenate([goals(params[..., j * K : (j + 1) * K, :], views[..., j, :])
-                                for j in range(views.shape[-2])], axis=-2)  # fmt: skip
+        return jnp.concatenate(
+            [
+                goals(params[..., j * K : (j + 1) * K, :], views[..., j, :])
+                for j in range(views.shape[-2])
+            ],
+            axis=-2,
+        )
 
     return fn
 
@@ -123,9 +128,15 @@ def make_behaviour(
         done = _stopped(lib, ms.skill % K, running, ms.goal, cfg.drop_distance)
         decide = execution.decide(ms, done | (ms.steps >= cfg.skill_steps))
         if cfg.critic == "per_skill":
-            new_skill, new_goal, meta = mpdqn.choose(agent, obs, task_goal,
-                                                    option_allowed(env, lib.names, obs), goals,
-                                                    ddpg_config, key if noisy else None)  # fmt: skip
+            new_skill, new_goal, meta = mpdqn.choose(
+                agent,
+                obs,
+                task_goal,
+                option_allowed(env, lib.names, obs),
+                goals,
+                ddpg_config,
+                key if noisy else None,
+            )
         else:
             if noisy:
                 meta = ddpg.explore(agent, key, obs, task_goal, ddpg_config)
@@ -224,8 +235,10 @@ def summarize(names: tuple[str, ...], cubes: int = 1):
         decision = records["decision"]
         n_choices = jnp.maximum(jnp.sum(decision), 1)
         skill = records["skill"] % len(names)
-        shares = {f"share_{name}": jnp.sum(decision & (skill == i)) / n_choices
-                  for i, name in enumerate(names)}  # fmt: skip
+        shares = {
+            f"share_{name}": jnp.sum(decision & (skill == i)) / n_choices
+            for i, name in enumerate(names)
+        }
         if cubes > 1:
             shares["object"] = jnp.sum(decision * (records["skill"] // len(names))) / n_choices
         ended = jnp.maximum(jnp.sum(records["ended"]), 1)
@@ -252,13 +265,17 @@ def make_pas(
     def init(key):
         if pas.critic == "per_skill":
             return mpdqn.init(key, env.obs_dim, env.goal_dim, options, ddpg)
-        return agent_ops.init(key, env.obs_dim, env.goal_dim, meta_dim(len(names)), ddpg,
-                              bounds="invert")  # fmt: skip
+        return agent_ops.init(
+            key, env.obs_dim, env.goal_dim, meta_dim(len(names)), ddpg, bounds="invert"
+        )
 
     def update(agent, buffer, fresh: MetaEpisode, key):
         ep = fresh.episode
-        agent = agent_ops.observe(agent, ep.obs.reshape(-1, env.obs_dim),
-                                  jnp.concatenate([ep.g, ep.ag], 1).reshape(-1, env.goal_dim))  # fmt: skip
+        agent = agent_ops.observe(
+            agent,
+            ep.obs.reshape(-1, env.obs_dim),
+            jnp.concatenate([ep.g, ep.ag], 1).reshape(-1, env.goal_dim),
+        )
         n, b = pas.updates_per_cycle, ddpg.batch_size
         batch = sample_batch(buffer, key, n * b, env, pas, names)
         batches = jax.tree.map(lambda x: x.reshape(n, b, *x.shape[1:]), batch)

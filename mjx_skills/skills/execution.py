@@ -32,8 +32,12 @@ class Running:
 
 def idle(n: int, goal_dim: int = 3) -> Running:
     """n envs with no skill running."""
-    return Running(active=jnp.zeros((n,), bool), skill=jnp.zeros((n,), jnp.int32),
-                   goal=jnp.zeros((n, goal_dim)), steps=jnp.zeros((n,), jnp.int32))  # fmt: skip
+    return Running(
+        active=jnp.zeros((n,), bool),
+        skill=jnp.zeros((n,), jnp.int32),
+        goal=jnp.zeros((n, goal_dim)),
+        steps=jnp.zeros((n,), jnp.int32),
+    )
 
 
 def decide(run: Running, stop: jax.Array) -> jax.Array:

@@ -74,8 +74,15 @@ def make_collect(
         s_T = jnp.where(done[:, None], s_T, state.obs)
         achieved = skill_env.achieved_from_obs(s_T)
         source = jnp.concatenate([jnp.full((c,), i, jnp.int32) for i, c in enumerate(counts)])
-        return {"s0": s0, "goal": goal, "param": param, "s_T": s_T, "steps": steps,
-                "success": skill_env.is_success(achieved, goal), "source": source}  # fmt: skip
+        return {
+            "s0": s0,
+            "goal": goal,
+            "param": param,
+            "s_T": s_T,
+            "steps": steps,
+            "success": skill_env.is_success(achieved, goal),
+            "source": source,
+        }
 
     return collect
 

@@ -45,8 +45,13 @@ from mjx_skills.skills.provenance import (
 from mjx_skills.skills.provenance import scene_files as scene_files  # re-exported
 from mjx_skills.skills.provenance import scenes_digest as scenes_digest  # re-exported
 
-LIBRARIES = dict(zip(LIBRARY_NAMES, (("transit", "grasp", "transfer"), ("grasp", "transfer"),
-                                         ("transit", "transfer")), strict=True))  # fmt: skip
+LIBRARIES = dict(
+    zip(
+        LIBRARY_NAMES,
+        (("transit", "grasp", "transfer"), ("grasp", "transfer"), ("transit", "transfer")),
+        strict=True,
+    )
+)
 """The thesis's libraries (Fig. 6.4) by their names (`config.LIBRARIES`, defined there once):
 the full one, SL1, and two reduced ones."""
 FORMAT = 1
@@ -261,8 +266,12 @@ def subset(lib: SkillLibrary, name: str) -> SkillLibrary:
 
 
 # ---------------------------------------------------------------------- artifact on disk
-def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
-         made_by: dict[str, str] | None = None) -> Path:  # fmt: skip
+def save(
+    lib: SkillLibrary,
+    directory: Path,
+    manifest: dict[str, Any],
+    made_by: dict[str, str] | None = None,
+) -> Path:
     """Write the library to `directory` (which must not exist): arrays through orbax into a
     temporary sibling, then manifest.json (with the arrays' `digest`, checked by `load`),
     then one rename, so a reader never sees half. `made_by`: the `provenance()` of the code
@@ -273,9 +282,15 @@ def save(lib: SkillLibrary, directory: Path, manifest: dict[str, Any],
     tmp = directory.with_name(f".{directory.name}.partial-{int(time.time())}")
     with ocp.StandardCheckpointer() as ckpt:
         ckpt.save(tmp / "arrays", lib)
-    full = {**manifest, "format": FORMAT, **(made_by or provenance()), "skills": list(lib.names),
-            "ddpg": dataclasses.asdict(lib.ddpg_config),
-            "library": dataclasses.asdict(lib.config), "complete": True}  # fmt: skip
+    full = {
+        **manifest,
+        "format": FORMAT,
+        **(made_by or provenance()),
+        "skills": list(lib.names),
+        "ddpg": dataclasses.asdict(lib.ddpg_config),
+        "library": dataclasses.asdict(lib.config),
+        "complete": True,
+    }
     full["robot"] = lib.envs[0].robot_name
     full["digest"] = tree_sha256(lib)
     full["definition"] = definition_sha256(full)
@@ -308,9 +323,12 @@ def read_manifest(directory: Path) -> dict[str, Any]:
         )
     reasons = stale_reasons(manifest)
     if reasons:
-        log.warning("skill library %s may be stale: %s; rebuild it with `python -m "
-                    "mjx_skills.build_library --out DIR` (and the same options, see its manifest)",
-                    directory, "; ".join(reasons))  # fmt: skip
+        log.warning(
+            "skill library %s may be stale: %s; rebuild it with `python -m "
+            "mjx_skills.build_library --out DIR` (and the same options, see its manifest)",
+            directory,
+            "; ".join(reasons),
+        )
     return manifest
 
 
@@ -348,14 +366,20 @@ def empty_like(
     d_in = obs_dim + goal_dim
     unit = lambda d: Norm(mean=jnp.zeros((K, d)), std=jnp.ones((K, d)))
     return SkillLibrary(
-        policy=policy, dynamics=dynamics, classifier=classifier,
-        input_norm=unit(d_in), delta_norm=unit(obs_dim),
-        state_mask=jnp.zeros((K, obs_dim), bool), memory_key_mask=jnp.zeros((K, d_in), bool),
+        policy=policy,
+        dynamics=dynamics,
+        classifier=classifier,
+        input_norm=unit(d_in),
+        delta_norm=unit(obs_dim),
+        state_mask=jnp.zeros((K, obs_dim), bool),
+        memory_key_mask=jnp.zeros((K, d_in), bool),
         memory_keys=jnp.zeros((K, memory_size, d_in)),
         memory_next=jnp.zeros((K, memory_size, obs_dim)),
         memory_valid=jnp.zeros((K, memory_size), bool),
-        names=names, ddpg_config=ddpg_config, config=config,
-    )  # fmt: skip
+        names=names,
+        ddpg_config=ddpg_config,
+        config=config,
+    )
 
 
 def remove_partials(directory: Path) -> None:

@@ -68,8 +68,9 @@ def sample_edges(
     if "transfer" in names and cfg.waypoint_share > 0:
         low, high = lib.envs[names.index("transfer")].object_goal_box()
         anywhere = jnp.asarray(low) + (jnp.asarray(high) - jnp.asarray(low)) * where
-        candidates["transfer"] = jnp.where(way < cfg.waypoint_share, anywhere,
-                                           candidates["transfer"])  # fmt: skip
+        candidates["transfer"] = jnp.where(
+            way < cfg.waypoint_share, anywhere, candidates["transfer"]
+        )
     if "grasp" in names:
         grasp = lib.envs[names.index("grasp")]
         candidates["grasp"] = grasp.goal_from_param(
@@ -79,8 +80,9 @@ def sample_edges(
     goal = jnp.take_along_axis(goals, skill[None, ..., None], axis=0)[0]
     if "transfer" in names:
         low, high = lib.envs[names.index("transfer")].object_goal_box()
-        goal = jnp.where((skill == names.index("transfer"))[..., None],
-                         jnp.clip(goal, low, high), goal)  # fmt: skip
+        goal = jnp.where(
+            (skill == names.index("transfer"))[..., None], jnp.clip(goal, low, high), goal
+        )
     return skill, goal, ok
 
 
@@ -95,9 +97,14 @@ def _draws(key: jax.Array, lead: tuple[int, ...], k: int) -> tuple[jax.Array, ..
     [-1, 1] (..., 1), waypoint coin (..., 1) and waypoint position share (..., 3)."""
     k_skill, k_noise, k_height, k_lift, k_way, k_where = jax.random.split(key, 6)
     uniform = jax.random.uniform
-    return (uniform(k_skill, (*lead, k)), uniform(k_noise, (*lead, 3), minval=-1.0, maxval=1.0),
-            uniform(k_height, lead), uniform(k_lift, (*lead, 1), minval=-1.0, maxval=1.0),
-            uniform(k_way, (*lead, 1)), uniform(k_where, (*lead, 3)))  # fmt: skip
+    return (
+        uniform(k_skill, (*lead, k)),
+        uniform(k_noise, (*lead, 3), minval=-1.0, maxval=1.0),
+        uniform(k_height, lead),
+        uniform(k_lift, (*lead, 1), minval=-1.0, maxval=1.0),
+        uniform(k_way, (*lead, 1)),
+        uniform(k_where, (*lead, 3)),
+    )
 
 
 def env_keys(key: jax.Array, n: int) -> jax.Array:
@@ -209,8 +216,12 @@ def search_envs(
 
 def no_search(n: int) -> SearchResult:
     """n envs without a search: every first edge counts as pruned."""
-    return SearchResult(skill=jnp.zeros((n,), jnp.int32), goal=jnp.zeros((n, 3)),
-                        all_pruned=jnp.ones((n,), bool), utility=jnp.full((n,), -jnp.inf))  # fmt: skip
+    return SearchResult(
+        skill=jnp.zeros((n,), jnp.int32),
+        goal=jnp.zeros((n, 3)),
+        all_pruned=jnp.ones((n,), bool),
+        utility=jnp.full((n,), -jnp.inf),
+    )
 
 
 def search_where(
@@ -253,8 +264,15 @@ def _search_chunks(lib, cfg, env, where, obs, task_goal, keys, obstacles) -> Sea
         r, found = carry
         rows = jax.lax.dynamic_slice_in_dim(order, r * chunk, chunk)
         valid = r * chunk + jnp.arange(chunk) < count
-        part = search_envs(lib, cfg, env, obs[rows], task_goal[rows], keys[rows],
-                           None if obstacles is None else obstacles[rows])  # fmt: skip
+        part = search_envs(
+            lib,
+            cfg,
+            env,
+            obs[rows],
+            task_goal[rows],
+            keys[rows],
+            None if obstacles is None else obstacles[rows],
+        )
         at = jnp.where(valid, rows, N)  # out of range: dropped
         found = jax.tree.map(lambda f, p: f.at[at].set(p, mode="drop"), found, part)
         return r + 1, found

@@ -42,9 +42,13 @@ def segment_distance(points: jax.Array, start: jax.Array, end: jax.Array) -> jax
 
 
 def blocked(
-    obstacles: jax.Array, names: tuple[str, ...], skill: jax.Array, grip: jax.Array,
-    goal: jax.Array, radius: float,
-) -> jax.Array:  # fmt: skip
+    obstacles: jax.Array,
+    names: tuple[str, ...],
+    skill: jax.Array,
+    grip: jax.Array,
+    goal: jax.Array,
+    radius: float,
+) -> jax.Array:
     """Edges (skill (R,), gripper position (R, 3), goal (R, 3)) of a moving skill whose path
     passes within `radius` of one of their env's obstacles (R, M, 3): (R,) bool."""
     near = segment_distance(obstacles, grip, goal) < radius
@@ -52,9 +56,16 @@ def blocked(
 
 
 def stalled(
-    names: tuple[str, ...], skill: jax.Array, grip: jax.Array, last_grip: jax.Array,
-    goal: jax.Array, active: jax.Array, steps: jax.Array, step_m: float, margin: float,
-) -> jax.Array:  # fmt: skip
+    names: tuple[str, ...],
+    skill: jax.Array,
+    grip: jax.Array,
+    last_grip: jax.Array,
+    goal: jax.Array,
+    active: jax.Array,
+    steps: jax.Array,
+    step_m: float,
+    margin: float,
+) -> jax.Array:
     """(B,) bool: a running moving skill moved its gripper (B, 3) less than `step_m` in its
     last step while still farther than `margin` from its goal (a skill settling onto its
     goal is not an obstacle)."""
@@ -64,9 +75,13 @@ def stalled(
 
 
 def remember(
-    obstacles: jax.Array, count: jax.Array, grip: jax.Array, goal: jax.Array,
-    stall: jax.Array, ahead: float,
-) -> tuple[jax.Array, jax.Array]:  # fmt: skip
+    obstacles: jax.Array,
+    count: jax.Array,
+    grip: jax.Array,
+    goal: jax.Array,
+    stall: jax.Array,
+    ahead: float,
+) -> tuple[jax.Array, jax.Array]:
     """Write the point `ahead` m from grip (B, 3) towards goal (B, 3) into the ring buffer
     obstacles (B, M, 3) of the envs that stalled (B,); returns (obstacles, count)."""
     direction = goal - grip

@@ -157,8 +157,9 @@ def make_train_epoch(
             "episodes": c.episodes,
             "skill_calls": c.skill_calls,
         }
-        return carry.replace(key=key, epoch=carry.epoch + 1,
-                             success=evaluated["eval_success"]), metrics  # fmt: skip
+        return carry.replace(
+            key=key, epoch=carry.epoch + 1, success=evaluated["eval_success"]
+        ), metrics
 
     return train_epoch
 
@@ -178,8 +179,14 @@ def init_carry(
     layout = jax.eval_shape(stored_one, jax.random.PRNGKey(0))
     example = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype), layout)
     buffer = replay.init(train.replay_capacity, example, T=env.episode_length)
-    return TrainCarry(agent=agent, replay=buffer, key=k_run, epoch=jnp.zeros((), jnp.int32),
-                      counters=Counters.zeros(), success=jnp.zeros(()))  # fmt: skip
+    return TrainCarry(
+        agent=agent,
+        replay=buffer,
+        key=k_run,
+        epoch=jnp.zeros((), jnp.int32),
+        counters=Counters.zeros(),
+        success=jnp.zeros(()),
+    )
 
 
 def seed_keys(train: TrainConfig) -> jax.Array:

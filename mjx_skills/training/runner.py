@@ -75,8 +75,12 @@ def new_run_dir(args: RunArgs) -> Path:
 def config_dict(args: RunArgs) -> dict[str, Any]:
     """What defines a run, as config.json holds it (without the package version)."""
     groups = {name: dataclasses.asdict(opt) for name, opt in args.full_options().items()}
-    return {"method": args.method, "train": dataclasses.asdict(args.train),
-            "env": dataclasses.asdict(args.env), "options": groups}  # fmt: skip
+    return {
+        "method": args.method,
+        "train": dataclasses.asdict(args.train),
+        "env": dataclasses.asdict(args.env),
+        "options": groups,
+    }
 
 
 def save_config(run_dir: Path, args: RunArgs) -> None:
@@ -98,8 +102,10 @@ def load_config(run_dir: Path) -> RunArgs:
         )
     spec = methods.get(raw["method"])
     # a field added since the run was written: at the value the code had then
-    options = {name: from_dict(type(spec.options[name]), {**spec.earlier.get(name, {}), **group})
-               for name, group in raw["options"].items()}  # fmt: skip
+    options = {
+        name: from_dict(type(spec.options[name]), {**spec.earlier.get(name, {}), **group})
+        for name, group in raw["options"].items()
+    }
     return RunArgs(
         train=from_dict(TrainConfig, raw["train"]),
         method=raw["method"],
