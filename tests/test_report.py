@@ -197,3 +197,22 @@ def test_published_figures_carry_their_sources():
         assert re.fullmatch(r"[0-9a-f]{7,40}", f["commit"])
         assert re.fullmatch(r"Fetch(Reach|Push|Slide|PickAndPlace)-v\d", f["env"])
         assert 0 < f["level"] <= 1 and 0 < f["env_steps"] <= 10_000_000
+
+
+def test_table5_1_sets_the_trivial_goal_predictor_beside_the_thesis_and_ours():
+    """The sentence counts, from a library's own errors, how often predicting "the run ends
+    at its goal" is below the thesis's memory error and how often our model beats it."""
+    from study.sections import trivial_predictor
+
+    models = {
+        "transit": {"memory_error_cm": 1.0, "model_error_cm": 0.5, "goal_error_cm": 1.5},
+        "grasp": {"memory_error_cm": 2.0, "model_error_cm": 2.5, "goal_error_cm": 3.0},
+        "transfer": {"memory_error_cm": 1.0, "model_error_cm": 0.9, "goal_error_cm": 0.8},
+    }
+    text = " ".join(trivial_predictor("default", {"models": models}))
+    # Thesis memory errors: 1.9, 2.8, 4.6 cm; 3.0 is above grasp's 2.8.
+    assert "1.50, 3.00, 0.80 cm" in text and "memory error for 2 of 3 skills" in text
+    assert "model beats the trivial predictor for 2 of 3 skills (transit, grasp)" in text
+    assert "our memory for 2 (transit, grasp)" in text
+    del models["grasp"]["goal_error_cm"]  # a library built before the column existed
+    assert trivial_predictor("default", {"models": models}) == []
