@@ -569,3 +569,38 @@ def test_the_tree_search_equals_a_brute_force_enumeration_of_every_path(
         np.testing.assert_allclose(found.goal[e], g, atol=1e-5)
     # The pruning mattered: somewhere a pruned edge's subtree held a better path.
     assert any(h for *_, h in want)
+
+
+def test_the_random_skill_explorer_draws_uniform_allowed_skills_and_scores_nothing(env):
+    """explorer = "random", the trivial baseline: a skill uniform among those allowed (transit
+    or grasp with the cube on the table, transfer with it held), goals drawn as the search
+    draws them but never scored (a skill the classifier prunes is drawn as often), rows
+    not deciding get nothing; in the behaviour every
+    deciding env starts a skill at eps = 1."""
+    cfg = SearchConfig()
+    free, goal = states(512, held=False)
+    held, _ = states(512, held=True)
+    where = jnp.arange(512) % 4 != 0
+    draw = jax.jit(lambda o, g, k: lookahead.random_edges(KnownLibrary(), cfg, where, o, g, k))
+    found = draw(free, goal, jax.random.PRNGKey(0))
+    skill, pruned = np.asarray(found.skill), np.asarray(found.all_pruned)
+    assert np.array_equal(pruned, ~np.asarray(where))
+    assert np.all(np.isneginf(np.asarray(found.utility)[pruned]))
+    assert set(skill[~pruned]) == {0, 1} and abs(np.mean(skill[~pruned] == 1) - 0.5) < 0.08
+    key1 = jax.random.PRNGKey(1)
+    carried = draw(held, goal, key1)
+    assert set(np.asarray(carried.skill)[np.asarray(where)]) == {2}
+    # The classifier is never asked: grasp pruned by it is still drawn about half the time.
+    unscored = lookahead.random_edges(KnownLibrary(pruned=(1,)), cfg, where, free, goal, key1)
+    assert abs(np.mean(np.asarray(unscored.skill)[np.asarray(where)] == 1) - 0.5) < 0.08
+
+    agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
+    every = SearchConfig(explorer="random", eps_start=1.0, eps_end=1.0)
+    beh = ddpg_her_sl.make_behaviour(
+        agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, every, DDPGConfig()
+    )
+    obs, goal8 = states(8, held=False)
+    state = EnvState(obs=obs, desired_goal=goal8, achieved_goal=obs[:, OBS_OBJECT])
+    ps, action, record = beh.step(beh.init(jax.random.PRNGKey(2), 8), jax.random.PRNGKey(3), state)
+    assert np.all(record["skill_calls"] == 1) and np.all(ps.run.active)
+    assert np.allclose(action, 0.5)  # the skills' actions (KnownLibrary.policy_action)

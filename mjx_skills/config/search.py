@@ -19,8 +19,10 @@ class SearchConfig:
     SL3 = transit, transfer (thesis Fig. 6.4)."""
     library_dir: str = "experiments/skill_library"
     """Where the built library is (`make skills`; the thesis preset's: ..._thesis)."""
-    explorer: Literal["search", "scripted"] = "search"
-    """What drives the exploring steps: the search, or the scripted controller (an oracle)."""
+    explorer: Literal["search", "scripted", "random"] = "search"
+    """What drives the exploring steps: the search, the scripted controller (an oracle), or
+    a random skill (a uniformly drawn allowed skill and a goal drawn as the search draws its
+    edges, with no scoring: the trivial baseline that measures what the search is worth)."""
     branching: int = 5
     """(skill, goal) pairs sampled at every node (thesis: 5)."""
     height: int = 3

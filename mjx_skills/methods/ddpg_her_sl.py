@@ -8,7 +8,9 @@ probability eps it searches and follows the best first skill's library policy; o
 (and when every edge was pruned) it acts with the learned policy plus noise. eps decays
 linearly over epochs. The replay stores the executed low-level actions, and the learner is
 DDPG+HER's, unchanged. `explorer="scripted"` puts the task's scripted controller in the
-search's place: the upper bound of what any explorer can give this learner.
+search's place: the upper bound of what any explorer can give this learner;
+`explorer="random"` a random skill and goal, unscored (`lookahead.random_edges`): the
+trivial baseline that the search's worth is measured against.
 """
 
 from __future__ import annotations
@@ -139,16 +141,26 @@ def make_behaviour(
             where = where & ~at_goal & workable(env.grasped(views), at_goal, in_order)
         obstacles = ps.obstacles if cfg.stall_memory else None
         aimed = clear_goals(env, obs, task_goal, cfg.goal_clearance)  # (B, n, 3)
-        found = lookahead.search_where(
-            lib,
-            cfg,
-            scored,
-            where.reshape(-1),
-            views.reshape(B * n, -1),
-            aimed.reshape(B * n, 3),
-            k_search,
-            None if obstacles is None else jnp.repeat(obstacles, n, 0),
-        )
+        if cfg.explorer == "random":  # the trivial baseline: no search
+            found = lookahead.random_edges(
+                lib,
+                cfg,
+                where.reshape(-1),
+                views.reshape(B * n, -1),
+                aimed.reshape(B * n, 3),
+                k_search,
+            )
+        else:
+            found = lookahead.search_where(
+                lib,
+                cfg,
+                scored,
+                where.reshape(-1),
+                views.reshape(B * n, -1),
+                aimed.reshape(B * n, 3),
+                k_search,
+                None if obstacles is None else jnp.repeat(obstacles, n, 0),
+            )
         found = jax.tree.map(lambda x: x.reshape(B, n, *x.shape[1:]), found)
         obj = jnp.argmax(found.utility, axis=1).astype(jnp.int32)  # the best cube's plan
         all_pruned = jnp.all(found.all_pruned, axis=1)

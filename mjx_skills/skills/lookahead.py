@@ -224,6 +224,33 @@ def no_search(n: int) -> SearchResult:
     )
 
 
+def random_edges(
+    lib: SkillLibrary,
+    cfg: SearchConfig,
+    where: jax.Array,
+    obs: jax.Array,
+    task_goal: jax.Array,
+    key: jax.Array,
+) -> SearchResult:
+    """The random-skill explorer (`explorer = "random"`): no search, one edge per env drawn
+    as the search draws a node's edges (`sample_edges`: a skill uniform among those allowed
+    here, its goal from the same distributions) and never scored. A uniform random utility
+    ranks the envs' rows (so the caller's pick among the cubes of a scene is uniform too);
+    rows not in `where` (B,) get no result. obs (B, obs_dim), task_goal (B, 3)."""
+    B = obs.shape[0]
+    keys = env_keys(key, B)
+    draws = jax.vmap(lambda k: _draws(k, (1,), len(lib.names)))(keys)
+    skill, goal, ok = sample_edges(lib, cfg, obs, task_goal, draws)
+    valid = where & ok[:, 0]
+    coin = jax.vmap(lambda k: jax.random.uniform(jax.random.fold_in(k, 1)))(keys)
+    return SearchResult(
+        skill=skill[:, 0],
+        goal=goal[:, 0],
+        all_pruned=~valid,
+        utility=jnp.where(valid, coin, -jnp.inf),
+    )
+
+
 def search_where(
     lib: SkillLibrary,
     cfg: SearchConfig,
