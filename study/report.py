@@ -21,7 +21,7 @@ from pathlib import Path
 
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import write_text_atomic
-from study import faster, two_cubes
+from study import faster, headlines, two_cubes
 from study.claims import FAILS, LABEL, LEARNS, THESIS_METHODS, ci, claims
 from study.figures import figure
 from study.results import EXPERIMENTS, Results
@@ -71,6 +71,10 @@ def render(r: Results, draw: bool = True) -> str:
         f"its last-5 mean is < {FAILS}; A is **faster** than B when A's interval of the mean over "
         "epochs lies entirely above B's. **matched**: our data shows the claim; **beaten**: it "
         "shows more than the claim; **short**: it does not show it.",
+        "",
+        "## Headlines on fresh seeds",
+        "",
+        *headlines.section(),
         "",
         "## The thesis's claims",
         "",

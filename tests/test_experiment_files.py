@@ -180,3 +180,26 @@ def test_an_explicit_budget_is_a_value(flag, value, tmp_path, capsys):
     assert (
         load_experiment("smoke").with_budget(epochs=None).epochs == load_experiment("smoke").epochs
     )
+
+
+def test_a_headline_names_an_existing_baseline_and_a_target_within_its_budget(
+    tmp_path, monkeypatch
+):
+    from mjx_skills.sweeps import experiments
+
+    monkeypatch.setattr(experiments, "EXPERIMENTS", tmp_path)
+    body = 'description = "t"\ngroup = "beyond"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
+    cases = {
+        'baseline = "nowhere"\n': "baseline 'nowhere' is no experiment; valid: ",
+        "target = { level = 0.9 }\n": "target: give level and epoch",
+        "target = { level = 1.5, epoch = 3 }\n": r"level must be in \(0, 1\]",
+        "target = { level = 0.9, epoch = 60 }\n": r"epoch must be 1 \.\. 50",
+    }
+    for i, (line, message) in enumerate(cases.items()):
+        (tmp_path / f"e{i}.toml").write_text(line + body)
+        with pytest.raises(ValueError, match=message):
+            load_experiment(f"e{i}")
+    (tmp_path / "ok.toml").write_text(
+        'baseline = "e0"\ntarget = { level = 0.9, epoch = 30 }\n' + body
+    )
+    assert load_experiment("ok").target == {"level": 0.9, "epoch": 30}

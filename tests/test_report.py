@@ -1,6 +1,8 @@
 """The results report (study/): its statistics on known curves, its verdict rules, and the
 committed docs/results.md is exactly what the committed data gives."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -216,3 +218,62 @@ def test_table5_1_sets_the_trivial_goal_predictor_beside_the_thesis_and_ours():
     assert "our memory for 2 (transit, grasp)" in text
     del models["grasp"]["goal_error_cm"]  # a library built before the column existed
     assert trivial_predictor("default", {"models": models}) == []
+
+
+def test_a_headline_is_reported_against_its_baseline_on_fresh_seeds_only(tmp_path, monkeypatch):
+    """A headline cell that reaches 1.0 from epoch 3 against a baseline at 0: the rolling
+    mean reaches 0.9 at epoch 7 (the first full window), the target (epoch 8) is met, and
+    every seed of the headline beats every seed of the baseline (P = 1, interval [1, 1]).
+    The same cell stored on tuning seeds is refused."""
+    import json
+
+    from mjx_skills.sweeps import cells, experiments
+    from study import headlines
+
+    monkeypatch.setattr(experiments, "EXPERIMENTS", tmp_path / "exp")
+    (tmp_path / "exp").mkdir()
+    common = 'tasks = ["transit"]\nmethods = ["ddpg_her"]\nseed = 100\nseeds = 6\nepochs = 10\n'
+    (tmp_path / "exp" / "base.toml").write_text(
+        f'description = "b"\ngroup = "baseline"\nrole = "headline"\nlabel = "b"\n{common}'
+    )
+    (tmp_path / "exp" / "head.toml").write_text(
+        'description = "h"\ngroup = "beyond"\nrole = "headline"\nbaseline = "base"\n'
+        f"target = {{ level = 0.9, epoch = 8 }}\n{common}"
+    )
+    store = tmp_path / "store"
+
+    def stored(exp, success) -> None:
+        run = tmp_path / "runs" / exp.cells()[0].name
+        run.mkdir(parents=True)
+        rows = [
+            {"epoch": e, "seed": s, "wall_s": float(e), "eval_success": success(e)}
+            for e in range(1, 11)
+            for s in range(exp.seeds)
+        ]
+        (run / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+        cells.save(exp.cells()[0], run, store)
+
+    head, base = experiments.load_experiment("head"), experiments.load_experiment("base")
+    assert "Not run yet on seeds 100-105" in " ".join(headlines.report(head, store))
+    stored(head, lambda e: 1.0 if e >= 3 else 0.0)
+    stored(base, lambda e: 0.0)
+    text = "\n".join(headlines.report(head, store))
+    assert "| reaches 0.9 at epoch | 7 [7, 7] | never [never, never] | - |" in text
+    assert "| IQM, epochs 4-8 | 1.00 [1.00, 1.00] | 0.00 [0.00, 0.00] | 1.00 [1.00, 1.00] |" in text
+    assert "(0.9 by epoch 8, seeds 100-105): **met**" in text
+    tuned = dataclasses.replace(head, seed=0, role="tuning", label="t")
+    stored(tuned, lambda e: 1.0)
+    with pytest.raises(ValueError, match="tuning seeds"):
+        headlines.stored_scores(tuned, store)
+
+
+def test_the_iqm_drops_the_outer_quartiles_and_improvement_counts_pairs():
+    values = np.array([*range(100), 1e6], dtype=float)[1:]  # 1 .. 99 and one huge run
+    point, low, high = stats.iqm_interval(values)
+    middle = np.sort(values)[25:75].mean()  # rliable trims 25 % at each end
+    assert point == pytest.approx(middle, rel=0.02) and low <= point <= high < 1e3
+    assert values.mean() > 1e4  # the plain mean is carried off by the outlier
+    assert stats.improvement(np.ones(5), np.zeros(5)) == (1.0, 1.0, 1.0)
+    assert stats.improvement(np.zeros(5), np.ones(5)) == (0.0, 0.0, 0.0)
+    p, low, high = stats.improvement(np.array([0.0, 1.0, 2.0]), np.array([0.5, 1.5]))
+    assert p == pytest.approx(3 / 6) and low < p < high  # 3 of the 6 pairs favour x

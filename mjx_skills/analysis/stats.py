@@ -23,6 +23,28 @@ WINDOW = 5
 """Epochs of the rolling mean that decides when a level is reached."""
 
 
+def _bootstrap(score_dict: dict, func, seed: int) -> tuple[dict, dict]:
+    """rliable's stratified bootstrap interval estimates (`REPS`, 95 %), reproducible: rliable
+    1.2's StratifiedBootstrap draws its indices from NumPy's global generator
+    (np.random.choice) whatever `random_state` says, so that one is seeded and restored."""
+    from rliable import library as rly
+
+    saved = np.random.get_state()  # noqa: NPY002 - rliable reads the legacy generator
+    np.random.seed(seed)  # noqa: NPY002
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # arch's notice about RandomState
+            return rly.get_interval_estimates(
+                score_dict,
+                func,
+                reps=REPS,
+                confidence_interval_size=CONFIDENCE,
+                random_state=np.random.RandomState(seed),
+            )
+    finally:
+        np.random.set_state(saved)  # noqa: NPY002
+
+
 def interval(values: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-column mean over rows and its 95 % bootstrap interval.
 
@@ -32,26 +54,39 @@ def interval(values: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray,
     mean = values.mean(axis=0)
     if values.shape[0] < 2:
         return mean, mean.copy(), mean.copy()
-    from rliable import library as rly
-
-    # rliable 1.2's StratifiedBootstrap draws its indices from NumPy's global generator
-    # (np.random.choice) whatever `random_state` says: seed that one, and restore it.
-    saved = np.random.get_state()  # noqa: NPY002 - rliable reads the legacy generator
-    np.random.seed(seed)  # noqa: NPY002
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # arch's notice about RandomState
-            _, ci = rly.get_interval_estimates(
-                {"x": values},
-                lambda s: s.mean(axis=0),
-                reps=REPS,
-                confidence_interval_size=CONFIDENCE,
-                random_state=np.random.RandomState(seed),
-            )
-    finally:
-        np.random.set_state(saved)  # noqa: NPY002
+    _, ci = _bootstrap({"x": values}, lambda s: s.mean(axis=0), seed)
     low, high = ci["x"]
     return mean, np.minimum(low, mean), np.maximum(high, mean)
+
+
+def iqm_interval(values: np.ndarray, seed: int = 0) -> tuple[float, float, float]:
+    """Interquartile mean over runs (rliable's `aggregate_iqm`: the mean of the middle 50 %,
+    the estimate Agarwal et al. 2021 recommend for few runs) with its 95 % stratified
+    bootstrap interval: values (runs,) or (runs, tasks) -> (iqm, low, high)."""
+    from rliable import metrics
+
+    values = np.asarray(values, dtype=np.float64).reshape(len(values), -1)
+    point = float(metrics.aggregate_iqm(values))
+    if values.shape[0] < 2:
+        return point, point, point
+    _, ci = _bootstrap({"x": values}, lambda s: np.array([metrics.aggregate_iqm(s)]), seed)
+    return point, float(min(ci["x"][0, 0], point)), float(max(ci["x"][1, 0], point))
+
+
+def improvement(x: np.ndarray, y: np.ndarray, seed: int = 0) -> tuple[float, float, float]:
+    """P(X > Y): the probability that a run of X scores above a run of Y (ties count half;
+    rliable's `probability_of_improvement`, Mann-Whitney's U over runs), with its 95 %
+    stratified bootstrap interval: x (runs_x,), y (runs_y,) -> (p, low, high). 0.5: no
+    difference; Agarwal et al. call an improvement meaningful when the interval's lower end
+    is above 0.5."""
+    from rliable import metrics
+
+    x = np.asarray(x, dtype=np.float64).reshape(len(x), -1)
+    y = np.asarray(y, dtype=np.float64).reshape(len(y), -1)
+    point = float(metrics.probability_of_improvement(x, y))
+    pair = lambda a, b: np.array([metrics.probability_of_improvement(a, b)])  # noqa: E731
+    _, ci = _bootstrap({"x,y": (x, y)}, pair, seed)
+    return point, float(min(ci["x,y"][0, 0], point)), float(max(ci["x,y"][1, 0], point))
 
 
 def first_reaching(curve: np.ndarray, level: float = 0.9, window: int = WINDOW) -> int | None:

@@ -81,6 +81,12 @@ class Experiment:
     """`sweeps.seeds.ROLES`: 'headline' cells must not run on a tuning seed."""
     group: str = "adhoc"
     """What the experiment is for (`GROUPS`; `sweep --list` groups by it)."""
+    baseline: str = ""
+    """A headline's matched baseline: the experiment (file name) whose cells it is set
+    against, run on the same seeds."""
+    target: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """A headline's target, `{level = 0.9, epoch = 30}`: the 5-epoch rolling mean of eval
+    success over its seeds reaches `level` by `epoch`."""
 
     def __post_init__(self) -> None:
         from mjx_skills import methods
@@ -111,6 +117,7 @@ class Experiment:
         if self.seeds < 1 or self.epochs < 1:
             raise ValueError(f"experiment {self.name}: seeds and epochs must be >= 1")
         self._check_seeds()
+        self._check_target()
         if self.group not in GROUPS:
             raise ValueError(
                 f"experiment {self.name}: unknown group {self.group!r}; valid: {', '.join(GROUPS)}"
@@ -157,6 +164,19 @@ class Experiment:
             raise ValueError(f"experiment {self.name}: seed must be >= 0, got {self.seed}")
         if self.role == "headline":
             check_headline_seeds(f"experiment {self.name}", seed_range(self.seed, self.seeds))
+
+    def _check_target(self) -> None:
+        """`target` holds exactly a level in (0, 1] and an epoch within the budget."""
+        if not self.target:
+            return
+        where = f"experiment {self.name}: target"
+        if set(self.target) != {"level", "epoch"}:
+            raise ValueError(f"{where}: give level and epoch, got {sorted(self.target)}")
+        level, epoch = self.target["level"], self.target["epoch"]
+        if not isinstance(level, int | float) or not 0 < level <= 1:
+            raise ValueError(f"{where}: level must be in (0, 1], got {level!r}")
+        if not isinstance(epoch, int) or not 1 <= epoch <= self.epochs:
+            raise ValueError(f"{where}: epoch must be 1 .. {self.epochs}, got {epoch!r}")
 
     def _check_types(self) -> None:
         """Every top-level value has its field's type (`config.checked_value`): `seeds = 3.0`
@@ -330,6 +350,10 @@ def load_experiment(name: str) -> Experiment:
     if raw.get("group") in (None, "adhoc"):
         valid = ", ".join(g for g in GROUPS if g != "adhoc")
         raise ValueError(f"{path}: group must be one of {valid} (what the experiment is for)")
+    if raw.get("baseline") and raw["baseline"] not in names():
+        raise ValueError(
+            f"{path}: baseline {raw['baseline']!r} is no experiment; valid: {', '.join(names())}"
+        )
     for key in ("tasks", "methods", "libraries", "samples"):
         if key in raw:
             raw[key] = tuple(raw[key])

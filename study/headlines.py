@@ -1,0 +1,110 @@
+"""The headlines on fresh seeds: every experiment with `role = "headline"` and a `target`,
+read from its stored cell, refused if the cell ran on a tuning seed (`seeds.check_headline`),
+and set against its matched baseline (`baseline = ...`, the same seeds) with the statistics
+rliable recommends for few runs (Agarwal et al. 2021): interquartile means with stratified
+bootstrap 95 % intervals, and the probability of improvement with its interval."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mjx_skills.analysis import stats
+from mjx_skills.core.files import read_json
+from mjx_skills.sweeps import cells
+from mjx_skills.sweeps.experiments import Experiment, load_experiment, names
+from mjx_skills.sweeps.seeds import check_headline, describe, seed_range
+from study.sections import table
+
+INTRO = (
+    "Each headline is reported on seeds that no tuning run used (every default was chosen "
+    "on seeds 0-4; a stored cell on a tuning seed is refused here), against a matched "
+    "baseline: the same learner on the same seeds with the library's part removed. "
+    "**reaches the level at** = the first epoch at which the 5-epoch rolling mean of the "
+    "seeds' mean reaches the target's level [95 % interval: whole seeds' curves resampled]; "
+    "**IQM** = the interquartile mean over seeds [95 % stratified bootstrap interval, rliable] "
+    "of each seed's mean over the 5 epochs ending at the target's epoch, or over its last 5; "
+    "**P(headline > baseline)** = the probability that a seed of the headline scores above a "
+    "seed of the baseline [95 % interval], meaningful when the interval's low end is above 0.5. "
+    "The target is **met** when the level is reached by the target's epoch."
+)
+HEADER = ["measure", "headline", "matched baseline", "P(headline > baseline)"]
+
+
+def experiments() -> list[Experiment]:
+    """The headline experiments (with a target), in name order."""
+    found = [load_experiment(name) for name in names()]
+    return [exp for exp in found if exp.role == "headline" and exp.target]
+
+
+def stored_scores(exp: Experiment, store: Path) -> np.ndarray | None:
+    """(seeds, epochs) eval success of `exp`'s one stored cell; None while it is not run.
+    ValueError if the experiment has several cells, or its cell ran on a tuning seed."""
+    found = exp.cells()
+    if len(found) != 1:
+        raise ValueError(f"headline {exp.name}: one cell per headline, got {len(found)}")
+    where = cells.stored(found[0], store)
+    if where is None:
+        return None
+    check_headline(found[0].name, read_json(where / "definition.json"))
+    return stats.scores_from_rows(cells.read_stored_metrics(where))
+
+
+def _reach(scores: np.ndarray, level: float) -> str:
+    hit = stats.first_reaching(scores.mean(axis=0), level)
+    low, high = stats.reach_interval(scores, level)
+    show = lambda e: "never" if e is None else str(e)  # noqa: E731
+    return f"{show(hit)} [{show(low)}, {show(high)}]"
+
+
+def _iqm(values: np.ndarray) -> str:
+    point, low, high = stats.iqm_interval(values)
+    return f"{point:.2f} [{low:.2f}, {high:.2f}]"
+
+
+def _p(x: np.ndarray, y: np.ndarray) -> str:
+    point, low, high = stats.improvement(x, y)
+    return f"{point:.2f} [{low:.2f}, {high:.2f}]"
+
+
+def report(exp: Experiment, store: Path = cells.STORE) -> list[str]:
+    """One headline's markdown: its table against the matched baseline and its verdict."""
+    level, epoch = exp.target["level"], exp.target["epoch"]
+    seeds = describe(seed_range(exp.seed, exp.seeds))
+    lines = [f"### {exp.name}: {exp.description}", ""]
+    ours = stored_scores(exp, store)
+    base_exp = load_experiment(exp.baseline) if exp.baseline else None
+    if base_exp is not None and (base_exp.seed, base_exp.seeds) != (exp.seed, exp.seeds):
+        raise ValueError(f"headline {exp.name}: its baseline {exp.baseline} runs other seeds")
+    base = stored_scores(base_exp, store) if base_exp is not None else None
+    missing = [e.name for e, s in ((exp, ours), (base_exp, base)) if e is not None and s is None]
+    if missing:
+        commands = "; ".join(f"`python -m mjx_skills.sweep --experiment {n}`" for n in missing)
+        return [*lines, f"Not run yet on seeds {seeds}: {commands}."]
+    window = slice(epoch - stats.WINDOW, epoch)
+    at, last = (lambda s: s[:, window].mean(axis=1)), (lambda s: s[:, -stats.LAST :].mean(axis=1))
+    rows = [[f"reaches {level} at epoch", _reach(ours, level), "-", "-"]]
+    if base is not None:
+        rows[0][2] = _reach(base, level)
+    for label, pick in ((f"IQM, epochs {epoch - 4}-{epoch}", at), ("IQM, last 5 epochs", last)):
+        row = [label, _iqm(pick(ours)), "-", "-"]
+        if base is not None:
+            row[2:] = [_iqm(pick(base)), _p(pick(ours), pick(base))]
+        rows.append(row)
+    hit = stats.first_reaching(ours.mean(axis=0), level)
+    verdict = "met" if hit is not None and hit <= epoch else "missed"
+    return [
+        *lines,
+        *table(HEADER, rows),
+        "",
+        f"**Target** ({level} by epoch {epoch}, seeds {seeds}): **{verdict}**.",
+    ]
+
+
+def section(store: Path = cells.STORE) -> list[str]:
+    """The report's headline section: the intro, then each headline."""
+    out = [INTRO]
+    for exp in experiments():
+        out += ["", *report(exp, store)]
+    return out
