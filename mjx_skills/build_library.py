@@ -29,7 +29,7 @@ import tyro
 from tqdm.auto import tqdm
 
 from mjx_skills.config import SEED_LIMIT, DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
-from mjx_skills.core import compile_cache, rollout
+from mjx_skills.core import compile_cache, plugins, rollout
 from mjx_skills.core.files import write_text_atomic
 from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.precision import use_float32
@@ -373,10 +373,9 @@ def write_table(directory: Path | list[Path], path: Path = TABLE) -> Path:
 def main(argv: list[str] | None = None) -> None:
     compile_cache.enable()
     use_float32()
+    argv = plugins.take_imports(sys.argv[1:] if argv is None else argv)
     try:
-        args = tyro.cli(
-            SkillsArgs, args=sys.argv[1:] if argv is None else argv, description=__doc__
-        )
+        args = tyro.cli(SkillsArgs, args=argv, description=__doc__)
         if args.table:
             print(f"wrote {write_table(Path(args.out))}")
             return

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from mjx_skills.config import SEED_LIMIT
+from mjx_skills.core import plugins
 
 
 def positive_int(text: str) -> int:
@@ -30,6 +31,7 @@ def run_parser(prog: str, doc: str | None, episodes: int) -> argparse.ArgumentPa
         prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("run_dir", type=Path, help="a run directory (OUT/<task>/<method>/<time>)")
+    parser.add_argument(plugins.FLAG, metavar="MODULE", help=plugins.HELP)  # taken before
     parser.add_argument("--episodes", type=positive_int, default=episodes, help="episodes per seed")
     parser.add_argument(
         "--seed", type=key_seed, default=10_000, help="seed of the episodes' starts"

@@ -28,7 +28,7 @@ import numpy as np
 from mjx_skills import methods
 from mjx_skills.agents import ddpg
 from mjx_skills.cli_args import run_parser
-from mjx_skills.core import compile_cache
+from mjx_skills.core import compile_cache, plugins
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.precision import require_float32, use_float32
 from mjx_skills.envs.registry import make
@@ -230,7 +230,7 @@ def parse_args(argv: list[str] | None):
 def main(argv: list[str] | None = None) -> None:
     compile_cache.enable()
     use_float32()
-    args = parse_args(argv)
+    args = parse_args(plugins.take_imports(sys.argv[1:] if argv is None else argv))
     try:
         rows = evaluate_run(args.run_dir, args.episodes, args.physics, args.seed)
     except UnsupportedOnGym as err:

@@ -38,7 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_skills.cli_args import positive_int, run_parser
-from mjx_skills.core import compile_cache, rollout
+from mjx_skills.core import compile_cache, plugins, rollout
 from mjx_skills.core.precision import use_float32
 
 # Nothing imported above imports mujoco: it picks its GL backend on its first import, and
@@ -301,7 +301,8 @@ def parse_args(argv: list[str] | None):
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = parse_args(argv)
+    # A user's module imports mujoco: loaded once MUJOCO_GL is chosen (`choose_gl`).
+    args = parse_args(plugins.take_imports(sys.argv[1:] if argv is None else argv, False))
     out = output_path(args.run_dir, args.out, args.overwrite)
     compile_cache.enable()
     use_float32()
@@ -313,6 +314,7 @@ def main(argv: list[str] | None = None) -> None:
     problem = gl_error()
     if problem:
         raise SystemExit(f"error: {problem}")
+    plugins.load_named()
     from mjx_skills import evaluate as evaluation
 
     try:

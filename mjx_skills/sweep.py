@@ -38,6 +38,7 @@ import sys
 from pathlib import Path
 
 from mjx_skills.cli_args import positive_int
+from mjx_skills.core import plugins
 from mjx_skills.core.paths import CHECKOUT, check_writable_path, directory
 from mjx_skills.sweeps.aggregate import aggregate, write_results
 from mjx_skills.sweeps.cell import Cell
@@ -146,9 +147,11 @@ def run_sweep(
 
 
 def main(argv: list[str] | None = None) -> None:
+    argv = plugins.take_imports(sys.argv[1:] if argv is None else argv)
     p = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
+    p.add_argument(plugins.FLAG, metavar="MODULE", help=plugins.HELP)  # taken above
     p.add_argument("--experiment", help="an experiment of experiments/*.toml (see --list)")
     p.add_argument("--list", action="store_true", help="list the experiments and exit")
     p.add_argument("--tasks", nargs="+", help="ad-hoc grid: tasks (instead of --experiment)")

@@ -8,8 +8,9 @@ examples:
   python -m mjx_skills.train --resume RUN_DIR --epochs 60 # ... and train on to 60 epochs
 
 Read before the method's options: --resume RUN_DIR [--epochs N] (nothing else with it),
---preset NAME (a method's option preset: default, thesis) and --method NAME (an earlier
-form of the subcommand).
+--preset NAME (a method's option preset: default, thesis), --method NAME (an earlier
+form of the subcommand) and --import MODULE (your module registering tasks or robots:
+a dotted name or a .py path; repeatable).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import tyro
 
 from mjx_skills import methods
 from mjx_skills.config import EnvConfig, TrainConfig
-from mjx_skills.core import compile_cache
+from mjx_skills.core import compile_cache, plugins
 from mjx_skills.core.precision import use_float32
 from mjx_skills.training.interrupt import INTERRUPTED
 from mjx_skills.training.metrics_log import logged_epochs
@@ -123,8 +124,9 @@ def parse(argv: list[str]) -> RunArgs:
 def main(argv: list[str] | None = None) -> None:
     compile_cache.enable()
     use_float32()
+    argv = plugins.take_imports(sys.argv[1:] if argv is None else argv)
     try:
-        args = parse(sys.argv[1:] if argv is None else argv)
+        args = parse(argv)
     except ValueError as err:  # an invalid config value, raised while tyro builds it
         raise SystemExit(f"error: {err}") from None
     try:

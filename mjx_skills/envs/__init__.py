@@ -10,8 +10,22 @@ from mjx_skills.envs.registry import (
     SKILLS,
     TASKS,
     make,
+    register_robot,
+    register_task,
     robot_of,
     tasks_of,
 )
 
-__all__ = ["BAXTER", "ENVS", "FETCH", "ROBOTS", "SKILLS", "TASKS", "make", "robot_of", "tasks_of"]
+__all__ = [
+    "BAXTER",
+    "ENVS",
+    "FETCH",
+    "ROBOTS",
+    "SKILLS",
+    "TASKS",
+    "make",
+    "register_robot",
+    "register_task",
+    "robot_of",
+    "tasks_of",
+]

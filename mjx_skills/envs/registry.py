@@ -84,3 +84,43 @@ def make(name: str, config: EnvConfig | None = None, **overrides) -> GoalEnv:
     if unknown:
         raise ValueError(f"unknown EnvConfig field(s) {sorted(unknown)}; valid: {sorted(fields)}")
     return ENVS[name](dataclasses.replace(config, **overrides))
+
+
+def register_task(name: str, cls: type) -> None:
+    """Add task `name` to the registry, as the package's own: `make`, `--task`, sweeps and
+    experiment files see it. `cls` is built from an `EnvConfig` and declares `robot_name`,
+    a registered robot (a Baxter task subclasses `envs.baxter.BaxterEnv`, e.g. a task of
+    `envs.tasks`; docs/extending.md). Call it from your own module and pass the module to
+    the commands with `--import` (`core.plugins`). ValueError, naming what is wrong, for a
+    name already taken, not a name, or an unknown robot."""
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"task name {name!r}: letters, digits and _ (a Python identifier)")
+    if name in ENVS:
+        raise ValueError(
+            f"task {name!r} is registered already ({ENVS[name].__qualname__}); choose another name"
+        )
+    check_robot(getattr(cls, "robot_name", None))
+    ENVS[name] = cls
+
+
+def register_robot(cls: type) -> None:
+    """Add a robot (an `envs.robot.Robot` class with a `name`) to `ROBOTS`, so that tasks
+    declaring it can be registered. ValueError for a name already taken."""
+    name = getattr(cls, "name", None)
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"robot {cls!r}: its `name` must be an identifier, got {name!r}")
+    if name in ROBOTS:
+        raise ValueError(f"robot {name!r} is registered already ({ROBOTS[name].__qualname__})")
+    ROBOTS[name] = cls
+
+
+def _import_user_modules() -> None:
+    """The modules MJX_SKILLS_IMPORT names (`core.plugins`), imported once the registry is
+    whole: in a sweep's worker processes too, which inherit the variable."""
+    from mjx_skills.core import plugins
+
+    for module in plugins.named():
+        plugins.load(module)
+
+
+_import_user_modules()

@@ -1,0 +1,91 @@
+"""The user's own modules: tasks and robots registered from outside the package.
+
+Every command takes `--import MODULE` (repeatable; a dotted module name importable from the
+working directory, or a path to a .py file), and `MJX_SKILLS_IMPORT=mod1,mod2` does the
+same from the environment. The modules are imported before the command reads its
+arguments; a module registers its tasks and robots when imported
+(`mjx_skills.envs.registry.register_task`, `register_robot`). The names are kept in the
+environment variable, so the worker processes a sweep spawns import them too (the registry
+imports them when it is first imported).
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import os
+import sys
+from pathlib import Path
+
+ENV = "MJX_SKILLS_IMPORT"
+FLAG = "--import"
+HELP = "a module of yours (dotted name or .py path) that registers tasks or robots; repeatable"
+
+
+def named() -> list[str]:
+    """The modules MJX_SKILLS_IMPORT names, in order."""
+    return [m for m in os.environ.get(ENV, "").split(",") if m.strip()]
+
+
+def load(module: str) -> None:
+    """Import `module` (a dotted name, or a path to a .py file) once. ValueError naming it and
+    the way it was given when it cannot be found."""
+    if module.endswith(".py"):
+        path = Path(module).expanduser().resolve()
+        name = f"mjx_skills_user_{path.stem}"
+        if name in sys.modules:
+            return
+        if not path.is_file():
+            raise ValueError(f"{FLAG} {module}: no such file")
+        spec = importlib.util.spec_from_file_location(name, path)
+        loaded = importlib.util.module_from_spec(spec)
+        sys.modules[name] = loaded
+        try:
+            spec.loader.exec_module(loaded)
+        except BaseException:
+            del sys.modules[name]
+            raise
+        return
+    try:
+        importlib.import_module(module)
+    except ModuleNotFoundError as err:
+        if err.name and module.startswith(err.name):
+            raise ValueError(
+                f"{FLAG} {module}: no module {err.name!r} importable from {Path.cwd()} "
+                f"(or give the path of its .py file; {ENV} names modules too)"
+            ) from None
+        raise
+
+
+def take_imports(argv: list[str], load_now: bool = True) -> list[str]:
+    """`argv` without its `--import MODULE` / `--import=MODULE` pairs, whose modules are
+    added to MJX_SKILLS_IMPORT (paths made absolute, for processes in other directories)
+    and imported (later, by `load_named`, unless `load_now`). SystemExit with one line when
+    a module is missing."""
+    rest, modules = [], []
+    args = iter(argv)
+    for arg in args:
+        if arg == FLAG:
+            value = next(args, None)
+            if value is None:
+                raise SystemExit(f"error: {FLAG} needs a module name or a .py path")
+            modules.append(value)
+        elif arg.startswith(FLAG + "="):
+            modules.append(arg.partition("=")[2])
+        else:
+            rest.append(arg)
+    modules = [str(Path(m).resolve()) if m.endswith(".py") else m for m in modules]
+    if modules:
+        os.environ[ENV] = ",".join(dict.fromkeys([*named(), *modules]))
+    if load_now:
+        load_named()
+    return rest
+
+
+def load_named() -> None:
+    """Import every module MJX_SKILLS_IMPORT names; SystemExit with one line if one is missing."""
+    try:
+        for module in named():
+            load(module)
+    except ValueError as err:
+        raise SystemExit(f"error: {err}") from None

@@ -1,0 +1,76 @@
+"""Tasks registered from the user's own module (`register_task`, `--import`): found by the
+commands and by a sweep's worker processes; bad registrations and missing modules named."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mjx_skills.core import plugins
+from mjx_skills.envs import registry
+
+ROOT = Path(__file__).resolve().parents[1]
+LIFT = ROOT / "examples" / "lift_task" / "lift.py"
+TINY = ["--envs", "2", "--cycles", "1", "--updates-per-cycle", "2", "--eval-episodes", "2"]
+
+
+def run(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if k != plugins.ENV}
+    command = [sys.executable, "-m", *argv]
+    return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=900)
+
+
+def test_bad_registrations_are_named(monkeypatch):
+    monkeypatch.setattr(registry, "ENVS", dict(registry.ENVS))
+    base = registry.ENVS["pick_move"]
+    with pytest.raises(ValueError, match="'pick_move' is registered already"):
+        registry.register_task("pick_move", base)
+    with pytest.raises(ValueError, match="identifier"):
+        registry.register_task("my task", base)
+    with pytest.raises(ValueError, match="unknown robot 'ur5'; valid: baxter, fetch"):
+        registry.register_task("mine", type("Mine", (), {"robot_name": "ur5"}))
+    registry.register_task("mine", base)
+    assert registry.make("mine").episode_length == base.default_episode_length
+    monkeypatch.setattr(registry, "ROBOTS", dict(registry.ROBOTS))
+    with pytest.raises(ValueError, match="'baxter' is registered already"):
+        registry.register_robot(registry.ROBOTS["baxter"])
+
+
+def test_import_flags_are_taken_and_a_missing_module_is_named(monkeypatch, tmp_path):
+    monkeypatch.delenv(plugins.ENV, raising=False)
+    monkeypatch.chdir(tmp_path)
+    rest = plugins.take_imports(["--task", "x", "--import=json", "--import", "csv", "-v"])
+    assert rest == ["--task", "x", "-v"] and plugins.named() == ["json", "csv"]
+    with pytest.raises(SystemExit, match="--import no_such_mod: no module 'no_such_mod'"):
+        plugins.take_imports(["--import", "no_such_mod"])
+    monkeypatch.delenv(plugins.ENV)
+    with pytest.raises(SystemExit, match="no such file"):
+        plugins.take_imports(["--import", "missing.py"])
+
+
+def test_a_users_task_trains_from_the_command_line(tmp_path):
+    """`train --import examples/lift_task/lift.py --task lift` from another directory; the
+    same command without --import names the valid tasks."""
+    out = tmp_path / "runs"
+    argv = ["mjx_skills.train", "ddpg_her", "--task", "lift", "--epochs", "1", *TINY]
+    argv += ["--replay-capacity", "500", "--out", str(out), "--no-progress"]
+    done = run([*argv, "--import", str(LIFT)], tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    (config,) = out.glob("lift/ddpg_her/*/config.json")
+    assert json.loads(config.read_text())["train"]["task"] == "lift"
+    refused = run(argv, tmp_path)
+    assert refused.returncode != 0 and "unknown task 'lift'; valid: transit" in refused.stderr
+
+
+def test_a_sweeps_worker_processes_see_the_users_task(tmp_path):
+    """Two cells at once, each in a spawned worker: the workers import the module too."""
+    argv = ["mjx_skills.sweep", "--import", str(LIFT), "--tasks", "lift", "transit"]
+    argv += ["--methods", "ddpg_her", "--seeds", "1", "--epochs", "1", "--jobs", "2"]
+    argv += ["--results", str(tmp_path / "results"), "--store", str(tmp_path / "store")]
+    done = run([*argv, "--no-progress"], tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    rows = (tmp_path / "results" / "adhoc.csv").read_text().splitlines()
+    assert sorted(r.split(",")[1] for r in rows[1:]) == ["lift", "transit"]
