@@ -399,15 +399,17 @@ def test_a_run_written_before_a_default_changed_loads_at_the_earlier_value(tmp_p
 
 
 def test_a_sweep_run_elsewhere_takes_the_committed_store_and_trains_nothing(tmp_path, monkeypatch):
-    """From another working directory, `--results TMP` regenerates a thesis CSV from the
-    checkout's committed cells: the same bytes as the committed CSV, and no cell directory
-    made (nothing trained). `--estimate` counts those cells as done."""
+    """From another working directory, `--results TMP` writes a thesis CSV from the
+    checkout's committed cells: every epoch of every cell over its 5 seeds, and no cell
+    directory made (nothing trained). `--estimate` counts those cells as done."""
     from mjx_skills.sweeps import cost
 
     monkeypatch.chdir(tmp_path)
     sweep.main(["--experiment", "fig6_5", "--results", "out", "--no-progress"])
-    committed = sweep.RESULTS / "fig6_5.csv"
-    assert (tmp_path / "out" / "fig6_5.csv").read_bytes() == committed.read_bytes()
+    rows = list(csv.DictReader((tmp_path / "out" / "fig6_5.csv").open()))
+    stored = load_experiment("fig6_5").cells()
+    assert {(r["task"], r["method"]) for r in rows} == {(c.task, c.method) for c in stored}
+    assert len(rows) == sum(c.epochs for c in stored) and {r["seeds"] for r in rows} == {"5"}
     assert not (tmp_path / "runs").exists()
     text = cost.report(load_experiment("fig6_5"), jobs=1)
     est = json.loads(text.splitlines()[-1])
