@@ -182,3 +182,16 @@ def test_only_envs_know_the_observation_offsets():
         if p.parent.name != "envs" and "OBS_" in p.read_text()
     )
     assert not offenders, offenders
+
+
+def test_every_command_has_an_installed_script():
+    """Each command module (`python -m mjx_skills.NAME`) is also a console script
+    (`mjx-skills-NAME`) whose target is that module's `main`."""
+    import importlib
+    import tomllib
+
+    scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
+    for command in ("train", "sweep", "build_library", "evaluate", "render"):
+        target = scripts[f"mjx-skills-{command.replace('_', '-')}"]
+        assert target == f"mjx_skills.{command}:main", target
+        assert callable(importlib.import_module(f"mjx_skills.{command}").main)
