@@ -33,6 +33,7 @@ class PointEnv:
     """A point moved by 0.1 x action in the plane; success within 0.05 of the goal."""
 
     obs_dim, goal_dim, action_dim, episode_length = 2, 2, 2, 7
+    n_objects = 0  # GoalEnv: the point itself reaches the goal, no object
 
     def compute_reward(self, achieved, desired):
         return (jnp.linalg.norm(achieved - desired, axis=-1) < 0.05).astype(jnp.float32) - 1.0

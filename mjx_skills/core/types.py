@@ -66,6 +66,9 @@ class GoalEnv(Protocol):
     layout: ObsLayout
     goal_is_object: bool
     """Whether the goal is the object's position (else the gripper's)."""
+    n_objects: int
+    """Objects the task moves to goals: 1 for most tasks, 0 for FetchReach, more in a
+    several-object scene (which then is a `MultiObjectEnv`)."""
 
     def grasped(self, obs: jax.Array) -> jax.Array:
         """obs (..., obs_dim) -> (...,) bool: the object is held in the fingers."""
@@ -82,6 +85,25 @@ class GoalEnv(Protocol):
     def compute_reward(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array: ...
 
     def is_success(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array: ...
+
+
+class MultiObjectEnv(GoalEnv, Protocol):
+    """A scene of `n_objects` > 1 cubes, each with its own 3-D goal (the goal is their
+    concatenation): what the methods use beyond a GoalEnv to act on one cube at a time
+    with the one-cube skill library (`envs.two_objects`)."""
+
+    def project(self, obs: jax.Array, k: int | jax.Array) -> jax.Array:
+        """obs (..., obs_dim) -> the one-cube observation (..., 25) of (gripper, cube k)."""
+        ...
+
+    def cube_success(self, achieved_goal: jax.Array, desired_goal: jax.Array) -> jax.Array:
+        """(..., goal_dim) twice -> (..., n_objects) bool: each cube at its goal."""
+        ...
+
+    @property
+    def cube_view(self) -> GoalEnv:
+        """The task as one cube sees it: what a search scores one cube's states with."""
+        ...
 
 
 class SkillEnv(GoalEnv, Protocol):

@@ -21,7 +21,6 @@ other envs search with it.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -29,6 +28,7 @@ from flax import struct
 
 from mjx_skills.config import SearchConfig
 from mjx_skills.core import rollout
+from mjx_skills.core.types import GoalEnv
 from mjx_skills.skills import stalls
 from mjx_skills.skills.library import SkillLibrary
 
@@ -127,7 +127,7 @@ def level_draws(draws: tuple[jax.Array, ...], level: int, b: int) -> tuple[jax.A
     return tuple(x[:, start : start + n].reshape(-1, *x.shape[2:]) for x in draws)
 
 
-def leaf_value(cfg: SearchConfig, env: Any, obs: jax.Array, task_goal: jax.Array) -> jax.Array:
+def leaf_value(cfg: SearchConfig, env: GoalEnv, obs: jax.Array, task_goal: jax.Array) -> jax.Array:
     """v(leaf): (...) from predicted observations (..., 25) and task goals (..., 3)."""
     achieved = env.achieved_from_obs(obs)
     if cfg.leaf_value == "reward":
@@ -138,7 +138,7 @@ def leaf_value(cfg: SearchConfig, env: Any, obs: jax.Array, task_goal: jax.Array
 def search(
     lib: SkillLibrary,
     cfg: SearchConfig,
-    env: Any,
+    env: GoalEnv,
     obs: jax.Array,
     task_goal: jax.Array,
     key: jax.Array,
@@ -153,7 +153,7 @@ def search(
 def search_envs(
     lib: SkillLibrary,
     cfg: SearchConfig,
-    env: Any,
+    env: GoalEnv,
     obs: jax.Array,
     task_goal: jax.Array,
     keys: jax.Array,
@@ -254,7 +254,7 @@ def random_edges(
 def search_where(
     lib: SkillLibrary,
     cfg: SearchConfig,
-    env: Any,
+    env: GoalEnv,
     where: jax.Array,
     obs: jax.Array,
     task_goal: jax.Array,

@@ -90,7 +90,7 @@ def make_evaluate(learner: Learner, env: GoalEnv, train: TrainConfig):
             "eval_success": final.metrics["success"].mean(),
             "eval_distance": final.metrics["distance"].mean(),
         }
-        if getattr(env, "n_objects", 1) > 1:  # a GoalEnv need not declare cubes
+        if env.n_objects > 1:  # a MultiObjectEnv
             out["eval_cubes"] = env.cube_success(final.achieved_goal, final.desired_goal).mean()
         return out
 
