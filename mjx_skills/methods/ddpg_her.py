@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
-from flax import struct
 
 from mjx_skills.agents import ddpg as ddpg_agent
 from mjx_skills.agents.ddpg import DDPGState
@@ -43,15 +42,6 @@ def make_ddpg_her(env: GoalEnv, train: TrainConfig, ddpg: DDPGConfig) -> Learner
     )
 
 
-@struct.dataclass
-class DemoEpisode:
-    """An episode and which of its steps an expert drove (the explorer's skills)."""
-
-    episode: rollout.Episode
-    demo: jax.Array
-    """(T,) bool."""
-
-
 def her_update(
     agent: ddpg_agent.DDPGState,
     buffer: ReplayState,
@@ -61,16 +51,14 @@ def her_update(
     n_updates: int,
     config: DDPGConfig,
     bc_weight: float = 0.0,
+    demo: jax.Array | None = None,
 ) -> tuple[ddpg_agent.DDPGState, dict[str, jax.Array]]:
     """Add the fresh episodes to the normalisers, then `n_updates` DDPG steps on hindsight-
     relabelled batches. The buffer and normalisers are fixed during the steps, so all
-    batches are sampled and relabelled up front in a few large gathers. A buffer of
-    `DemoEpisode`s with `bc_weight` > 0: the actor also clones their demonstrated steps
-    (`ddpg.q_filtered_bc_loss`), relabelled like every other transition."""
-    demo = None
-    if isinstance(buffer.data, DemoEpisode):
-        demo, fresh = buffer.data.demo, fresh.episode
-        buffer = buffer.replace(data=buffer.data.episode)
+    batches are sampled and relabelled up front in a few large gathers. With `demo` (the
+    buffer's episodes' (capacity, T) bool: which steps an expert drove) and `bc_weight` > 0,
+    the actor also clones the demonstrated steps (`ddpg.q_filtered_bc_loss`), relabelled
+    like every other transition (DDPG+HER+SL+BC)."""
     demo = demo if bc_weight else None
     agent = ddpg_agent.observe(
         agent,

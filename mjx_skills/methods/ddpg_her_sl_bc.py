@@ -16,16 +16,28 @@ from __future__ import annotations
 
 import dataclasses
 
+import jax
 import jax.numpy as jnp
+from flax import struct
 
 from mjx_skills.agents.ddpg import DDPGState
 from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig, check_numbers
 from mjx_skills.core import rollout
 from mjx_skills.core.learner import Learner
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.methods.ddpg_her import DemoEpisode, her_update
+from mjx_skills.methods.ddpg_her import her_update
 from mjx_skills.methods.ddpg_her_sl import make_ddpg_her_sl
 from mjx_skills.skills.library import SkillLibrary
+
+
+@struct.dataclass
+class DemoEpisode:
+    """An episode and which of its steps an expert drove (the explorer's skills): what this
+    method's replay keeps."""
+
+    episode: rollout.Episode
+    demo: jax.Array
+    """(T,) bool."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,7 +64,10 @@ def make_ddpg_her_sl_bc(
         held = records.get("holds", jnp.zeros_like(driven))
         return DemoEpisode(episode=episodes, demo=driven | held)
 
-    def update(agent, buffer, fresh, key):
-        return her_update(agent, buffer, fresh, key, env, train.updates_per_cycle, ddpg, bc.weight)
+    def update(agent, buffer, fresh: DemoEpisode, key):
+        episodes = buffer.replace(data=buffer.data.episode)
+        n = train.updates_per_cycle
+        demo = buffer.data.demo
+        return her_update(agent, episodes, fresh.episode, key, env, n, ddpg, bc.weight, demo)
 
     return base._replace(store=store, update=update)
