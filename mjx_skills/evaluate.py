@@ -43,9 +43,6 @@ from mjx_skills.training.epoch import (
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, load_config
 
-FLAT_METHODS = ("ddpg_her", "ddpg_her_sl", "ddpg_her_sl_bc")
-"""Methods whose evaluation behaviour is the flat DDPG actor: the ones gym can replay."""
-
 
 class UnsupportedOnGym(ValueError):
     """A method whose behaviour needs the JAX env (skills, the library) asked for gym."""
@@ -141,17 +138,18 @@ def check_gym_supports(method: str, task: str) -> None:
             "loop; the Fetch adapter (MjxSkills/Fetch*-v0) steps the JAX env itself, so "
             "--physics native evaluates the same physics: use it"
         )
-    if method not in FLAT_METHODS:
+    flat = [name for name, spec in methods.METHODS.items() if spec.flat_policy]
+    if method not in flat:
         raise UnsupportedOnGym(
             f"{method} is not supported on the gym adapter (its skills and library run in "
-            f"the JAX env); use --physics native or mjx (gym: {', '.join(FLAT_METHODS)})"
+            f"the JAX env); use --physics native or mjx (gym: {', '.join(flat)})"
         )
 
 
 def evaluate_gym(run: TrainedRun, key: jax.Array, episodes: int) -> tuple[np.ndarray, np.ndarray]:
     """-> (success, final distance) per seed on the gymnasium adapter (flat methods)."""
     check_gym_supports(run.args.method, run.args.train.task)
-    from mjx_skills.envs.gym import BaxterGymEnv  # gymnasium is an optional dependency
+    from mjx_skills.envs.gym import BaxterGymEnv  # imports gymnasium: only when asked for
 
     fields = dataclasses.asdict(run.args.env.for_evaluation())
     fields.pop("physics")  # the adapter is native by construction

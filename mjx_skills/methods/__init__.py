@@ -43,6 +43,10 @@ class Method:
     unread_unless: dict[str, str] = dataclasses.field(default_factory=dict)
     """Options it reads only while a switch of the same group is on ("group.field" ->
     "switch"); setting one with the switch off is an error."""
+    flat_policy: bool = False
+    """Whether its evaluation behaviour is the flat DDPG actor alone (an observation and goal
+    in, an action out), so that another env implementation can replay it
+    (`evaluate --physics gym`)."""
     earlier: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     """Option fields whose default changed after they were added ("group" -> {field: the
     value the code had before the field existed}): a run's config.json or a stored cell's
@@ -218,6 +222,7 @@ def _pas(name: str, label: str, description: str) -> Method:
 METHODS: dict[str, Method] = {
     "ddpg_her": Method(
         name="ddpg_her",
+        flat_policy=True,
         label="DDPG+HER",
         description="flat DDPG + HER from scratch (thesis baseline 1)",
         options={"ddpg": DDPGConfig()},
@@ -237,6 +242,7 @@ METHODS: dict[str, Method] = {
     ),
     "ddpg_her_sl": Method(
         name="ddpg_her_sl",
+        flat_policy=True,
         label="DDPG+HER+SL",
         description="DDPG + HER exploring with a look-ahead search over the skill library "
         "(thesis ch. 5)",
@@ -245,6 +251,7 @@ METHODS: dict[str, Method] = {
     ),
     "ddpg_her_sl_bc": Method(
         name="ddpg_her_sl_bc",
+        flat_policy=True,
         label="DDPG+HER+SL+BC",
         description="DDPG+HER+SL whose actor also clones the explorer's skills where the "
         "critic agrees (Q-filtered behaviour cloning; beyond the thesis)",
