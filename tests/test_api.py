@@ -81,7 +81,8 @@ def test_the_documented_snippet_runs_and_the_render_marks_the_goal(run_dir, tmp_
     )
     script = tmp_path / "snippet.py"
     script.write_text(f"import numpy as np\nRUN_DIR = {str(run_dir)!r}\n{snippet()}{check}")
-    monkeypatch.delenv("MUJOCO_GL", raising=False)  # choose_gl sets it; restored after
+    # choose_gl writes MUJOCO_GL: set here first, so that it is restored after the test.
+    monkeypatch.setenv("MUJOCO_GL", os.environ.get("MUJOCO_GL", ""))
     try:
         gl = choose_gl()
     except RuntimeError as err:

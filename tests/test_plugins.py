@@ -40,13 +40,13 @@ def test_bad_registrations_are_named(monkeypatch):
 
 
 def test_import_flags_are_taken_and_a_missing_module_is_named(monkeypatch, tmp_path):
-    monkeypatch.delenv(plugins.ENV, raising=False)
+    monkeypatch.setenv(plugins.ENV, "")  # restored after: take_imports writes it
     monkeypatch.chdir(tmp_path)
     rest = plugins.take_imports(["--task", "x", "--import=json", "--import", "csv", "-v"])
     assert rest == ["--task", "x", "-v"] and plugins.named() == ["json", "csv"]
     with pytest.raises(SystemExit, match="--import no_such_mod: no module 'no_such_mod'"):
         plugins.take_imports(["--import", "no_such_mod"])
-    monkeypatch.delenv(plugins.ENV)
+    monkeypatch.setenv(plugins.ENV, "")
     with pytest.raises(SystemExit, match="no such file"):
         plugins.take_imports(["--import", "missing.py"])
 
