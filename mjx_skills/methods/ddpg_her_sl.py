@@ -141,26 +141,12 @@ def make_behaviour(
             where = where & ~at_goal & workable(env.grasped(views), at_goal, in_order)
         obstacles = ps.obstacles if cfg.stall_memory else None
         aimed = clear_goals(env, obs, task_goal, cfg.goal_clearance)  # (B, n, 3)
+        rows = (where.reshape(-1), views.reshape(B * n, -1), aimed.reshape(B * n, 3))
         if cfg.explorer == "random":  # the trivial baseline: no search
-            found = lookahead.random_edges(
-                lib,
-                cfg,
-                where.reshape(-1),
-                views.reshape(B * n, -1),
-                aimed.reshape(B * n, 3),
-                k_search,
-            )
+            found = lookahead.random_edges(lib, cfg, *rows, k_search)
         else:
-            found = lookahead.search_where(
-                lib,
-                cfg,
-                scored,
-                where.reshape(-1),
-                views.reshape(B * n, -1),
-                aimed.reshape(B * n, 3),
-                k_search,
-                None if obstacles is None else jnp.repeat(obstacles, n, 0),
-            )
+            near = None if obstacles is None else jnp.repeat(obstacles, n, 0)
+            found = lookahead.search_where(lib, cfg, scored, *rows, k_search, near)
         found = jax.tree.map(lambda x: x.reshape(B, n, *x.shape[1:]), found)
         obj = jnp.argmax(found.utility, axis=1).astype(jnp.int32)  # the best cube's plan
         all_pruned = jnp.all(found.all_pruned, axis=1)
