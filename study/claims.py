@@ -58,6 +58,12 @@ def above(a: Summary, b: Summary, field: str = "auc") -> bool:
     return getattr(a, field)[1] > getattr(b, field)[2]
 
 
+def reaches_one(s) -> bool:
+    """The last-5 mean's 95 % interval reaches 1.0: the data cannot tell the policy from
+    the optimal one (rounding aside: eval success is a multiple of 1/20 per epoch)."""
+    return round(s.last[2], 6) >= 1.0
+
+
 def compare(a, b, field: str, names: tuple[str, str]) -> str:
     """The name of the one of a, b higher in `field` by the interval rule ('overlap' if
     neither; '' while one is not run)."""
@@ -124,15 +130,17 @@ def claims(r) -> list[list[str]]:
         lambda: f"mean over epochs: MPAS {ci(m.auc)}, PAS {ci(p.auc)}",
         lambda: "matched" if above(m, p) else "short",
     )
-    put_on = {k: g3("put_on", k) for k in THESIS_METHODS}
+    # "all the methods can learn" (6.3c) are the library's: C3 has DDPG+HER fail put_on.
+    put_on = {k: g3("put_on", k) for k in THESIS_METHODS if k != "ddpg_her"}
+    base = g3("put_on", "ddpg_her")
     claim(
         "C7",
-        "put_on: every method learns; PAS and MPAS converge to about 0.8",
-        list(put_on.values()),
+        "put_on: PAS, MPAS and DDPG+HER+SL learn; PAS and MPAS converge to about 0.8",
+        [*put_on.values(), base],
         lambda: ", ".join(f"{LABEL[k]} {ci(s.last)}" for k, s in put_on.items()),
         lambda: (
             "short"
-            if not all(learns(s) for s in put_on.values())
+            if not all(learns(s, base) for s in put_on.values())
             else "beaten"
             if min(put_on["pas"].last[0], put_on["mpas"].last[0]) > 0.9
             else "matched"
@@ -142,10 +150,11 @@ def claims(r) -> list[list[str]]:
         s, d = g3(task, "ddpg_her_sl"), g3(task, "ddpg_her")
         claim(
             "C8",
-            f"DDPG+HER+SL learns {task} and converges to 1.0 (here: last 5 >= 0.95)",
+            f"DDPG+HER+SL learns {task} and converges to the optimal policy (1.0: here, the "
+            "last-5 interval reaches 1.0)",
             [s, d],
             lambda s=s: f"last 5: {ci(s.last)}; 0.9 at epoch {reach(s.reach_90)}",
-            lambda s=s, d=d: "matched" if learns(s, d) and s.last[0] >= 0.95 else "short",
+            lambda s=s, d=d: "matched" if learns(s, d) and reaches_one(s) else "short",
         )
     s, p, m = g3("put_on", "ddpg_her_sl"), g3("put_on", "pas"), g3("put_on", "mpas")
     claim(
@@ -199,9 +208,17 @@ def claims(r) -> list[list[str]]:
     )
     claim(
         "C14",
-        "container_wall: DDPG+HER+SL learns, DDPG+HER fails",
+        "container_wall: DDPG+HER+SL works better than random exploration (Fig. 6.5b's "
+        "caption), DDPG+HER fails",
         [s, d],
         lambda: f"last 5: SL {ci(s.last)}, DDPG+HER {ci(d.last)}",
-        lambda: "matched" if learns(s, d) and fails(d) else "short",
+        lambda: "matched" if above(s, d, "last") and fails(d) else "short",
+    )
+    claim(
+        "C14",
+        "container_wall: DDPG+HER+SL learns (the text: it performs the task)",
+        [s, d],
+        lambda: f"last 5: SL {ci(s.last)}",
+        lambda: "matched" if learns(s, d) else "short",
     )
     return out

@@ -277,3 +277,13 @@ def test_the_iqm_drops_the_outer_quartiles_and_improvement_counts_pairs():
     assert stats.improvement(np.zeros(5), np.ones(5)) == (0.0, 0.0, 0.0)
     p, low, high = stats.improvement(np.array([0.0, 1.0, 2.0]), np.array([0.5, 1.5]))
     assert p == pytest.approx(3 / 6) and low < p < high  # 3 of the 6 pairs favour x
+
+
+def test_converging_to_the_optimal_policy_needs_an_interval_that_reaches_one():
+    """C8's rule: a last-5 interval of [0.93, 0.97] excludes 1.0 (short); one that reaches
+    1.0, up to float rounding, does not."""
+    from types import SimpleNamespace
+
+    assert not claims.reaches_one(SimpleNamespace(last=(0.95, 0.93, 0.97)))
+    assert claims.reaches_one(SimpleNamespace(last=(0.99, 0.97, 1.0)))
+    assert claims.reaches_one(SimpleNamespace(last=(0.99, 0.97, 1.0 - 1e-9)))
