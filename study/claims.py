@@ -1,4 +1,4 @@
-"""The thesis's chapter 6 claims (C1-C14) as verdicts on our data.
+"""The thesis's chapter 6 claims (C1-C14, C17) as verdicts on our data.
 
 Each claim reads the summaries of the cells it is about (`results.Results`) and gets
 'matched' (our data shows it), 'beaten' (it shows more), 'short' (it does not) or, while
@@ -73,7 +73,7 @@ def compare(a, b, field: str, names: tuple[str, str]) -> str:
 
 
 def claims(r) -> list[list[str]]:
-    """Chapter 6's claims (C1-C14) -> rows of (id, claim, ours, verdict)."""
+    """Chapter 6's claims (C1-C14; C17: section 6.2's) -> rows of (id, claim, ours, verdict)."""
     g3 = lambda task, method: r.get("fig6_3", task, method)  # noqa: E731
     out = []
 
@@ -220,5 +220,17 @@ def claims(r) -> list[list[str]]:
         [s, d],
         lambda: f"last 5: SL {ci(s.last)}",
         lambda: "matched" if learns(s, d) else "short",
+    )
+    narrow = r.find("fast_no_wide", "pick_move", "ddpg_her_sl_fast")[1]
+    cell, wide = r.find("fast_first", "pick_move", "ddpg_her_sl_fast")
+    if narrow is not None and wide is not None:
+        wide = r.first_epochs(cell, wide, narrow.epochs)  # over the ablation's epochs
+    claim(
+        "C17",
+        "other network sizes do not learn faster or better (6.2; tested here on "
+        "DDPG+HER+SL+Fast's learner: 3 x 64 against its 3 x 256)",
+        [narrow, wide],
+        lambda: f"mean over epochs: 3 x 256 {ci(wide.auc)}, 3 x 64 {ci(narrow.auc)}",
+        lambda: "short" if above(wide, narrow) or above(narrow, wide) else "matched",
     )
     return out
