@@ -153,7 +153,7 @@ def run_sb3(task: str, algo: str, total_steps: int, seed: int = 0) -> dict:
     from stable_baselines3 import DDPG, SAC, HerReplayBuffer
     from stable_baselines3.common.noise import NormalActionNoise
 
-    torch.set_num_threads(os.cpu_count() or 1)  # 2 threads: 110 env steps/s, 1 thread: 101
+    torch.set_num_threads(os.cpu_count() or 1)  # every core (2 here)
     env = gymnasium.make(gym_id(task))
     episode = env.unwrapped.task.episode_length
     common = dict(
