@@ -13,7 +13,8 @@ import numpy as np
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import read_json
 from mjx_skills.sweeps import cells
-from mjx_skills.sweeps.experiments import Experiment, load_experiment, names
+from mjx_skills.sweeps.experiment_file import names
+from mjx_skills.sweeps.experiments import Experiment, load_experiment
 from mjx_skills.sweeps.seeds import check_headline, describe, seed_range
 from study.sections import table
 

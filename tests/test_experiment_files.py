@@ -8,7 +8,8 @@ import pytest
 
 from mjx_skills import methods, sweep
 from mjx_skills.config import EnvConfig, TrainConfig
-from mjx_skills.sweeps.experiments import Experiment, load_experiment, names
+from mjx_skills.sweeps.experiment_file import names
+from mjx_skills.sweeps.experiments import Experiment, load_experiment
 
 BASE = {"description": "test", "tasks": ("pick_move",), "seeds": 1, "epochs": 1}
 
@@ -148,9 +149,9 @@ def test_every_field_refuses_a_value_of_another_type(cls):
 
 
 def test_a_library_file_refuses_keys_it_does_not_read(tmp_path, monkeypatch):
-    from mjx_skills.sweeps import experiments
+    from mjx_skills.sweeps import experiment_file
 
-    monkeypatch.setattr(experiments, "EXPERIMENTS", tmp_path)
+    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
     (tmp_path / "lib.toml").write_text(
         'description = "x"\nkind = "library"\nsamples = [200]\nseeds = 3\n'
     )
@@ -185,9 +186,9 @@ def test_an_explicit_budget_is_a_value(flag, value, tmp_path, capsys):
 def test_a_headline_names_an_existing_baseline_and_a_target_within_its_budget(
     tmp_path, monkeypatch
 ):
-    from mjx_skills.sweeps import experiments
+    from mjx_skills.sweeps import experiment_file
 
-    monkeypatch.setattr(experiments, "EXPERIMENTS", tmp_path)
+    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
     body = 'description = "t"\ngroup = "beyond"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
     cases = {
         'baseline = "nowhere"\n': "baseline 'nowhere' is no experiment; valid: ",
@@ -203,3 +204,41 @@ def test_a_headline_names_an_existing_baseline_and_a_target_within_its_budget(
         'baseline = "e0"\ntarget = { level = 0.9, epoch = 30 }\n' + body
     )
     assert load_experiment("ok").target == {"level": 0.9, "epoch": 30}
+
+
+def test_a_variant_states_only_what_it_changes(tmp_path, monkeypatch):
+    """`extends`: the parent's keys and tables under the variant's, merged key by key;
+    description, group, baseline and target never inherited; loops and unknown parents
+    named."""
+    from mjx_skills.sweeps import experiment_file
+
+    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
+    (tmp_path / "base.toml").write_text(
+        'description = "b"\ngroup = "beyond"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
+        "seeds = 2\ntarget = { level = 0.5, epoch = 10 }\n"
+        "[train]\nenvs = 2\ncycles = 3\n[options.ddpg_her.ddpg]\nbatch_size = 64\ntau = 0.1\n"
+    )
+    (tmp_path / "child.toml").write_text(
+        'extends = "base"\ndescription = "c"\ngroup = "ablation"\nlabel = "small"\nseeds = 3\n'
+        "[train]\ncycles = 1\n[options.ddpg_her.ddpg]\ntau = 0.2\n"
+    )
+    child = load_experiment("child")
+    assert (child.description, child.group, child.label, child.seeds) == (
+        "c",
+        "ablation",
+        "small",
+        3,
+    )
+    assert child.tasks == ("transit",) and child.train == {"envs": 2, "cycles": 1}
+    assert child.options == {"ddpg_her": {"ddpg": {"batch_size": 64, "tau": 0.2}}}
+    assert child.target == {} and load_experiment("base").target["level"] == 0.5
+    (tmp_path / "nogroup.toml").write_text('extends = "base"\ndescription = "n"\n')
+    with pytest.raises(ValueError, match="group must be one of"):
+        load_experiment("nogroup")
+    (tmp_path / "a.toml").write_text('extends = "b"\ndescription = "a"\ngroup = "beyond"\n')
+    (tmp_path / "b.toml").write_text('extends = "a"\ndescription = "b"\ngroup = "beyond"\n')
+    with pytest.raises(ValueError, match="extends loops: a -> b -> a"):
+        load_experiment("a")
+    (tmp_path / "orphan.toml").write_text('extends = "gone"\ndescription = "o"\ngroup = "beyond"\n')
+    with pytest.raises(ValueError, match="unknown experiment 'gone' \\(extended by orphan\\)"):
+        load_experiment("orphan")

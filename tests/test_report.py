@@ -227,10 +227,10 @@ def test_a_headline_is_reported_against_its_baseline_on_fresh_seeds_only(tmp_pat
     The same cell stored on tuning seeds is refused."""
     import json
 
-    from mjx_skills.sweeps import cells, experiments
+    from mjx_skills.sweeps import cells, experiment_file, experiments
     from study import headlines
 
-    monkeypatch.setattr(experiments, "EXPERIMENTS", tmp_path / "exp")
+    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path / "exp")
     (tmp_path / "exp").mkdir()
     common = 'tasks = ["transit"]\nmethods = ["ddpg_her"]\nseed = 100\nseeds = 6\nepochs = 10\n'
     (tmp_path / "exp" / "base.toml").write_text(

@@ -68,7 +68,7 @@ def test_a_stored_cell_on_the_tuning_seeds_is_not_a_headline():
 def test_every_headline_experiment_file_runs_on_fresh_seeds():
     """The committed files: each headline's seeds avoid the tuning seeds (a file would fail
     to load otherwise; this names it)."""
-    from mjx_skills.sweeps.experiments import names
+    from mjx_skills.sweeps.experiment_file import names
 
     for name in names():
         exp = load_experiment(name)

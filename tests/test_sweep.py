@@ -10,7 +10,8 @@ import pytest
 
 from mjx_skills import sweep
 from mjx_skills.sweeps import local
-from mjx_skills.sweeps.experiments import Experiment, load_experiment, names
+from mjx_skills.sweeps.experiment_file import names
+from mjx_skills.sweeps.experiments import Experiment, load_experiment
 from mjx_skills.sweeps.ray_cells import check_ray_address
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import train_run
@@ -418,7 +419,7 @@ def test_a_sweep_run_elsewhere_takes_the_committed_store_and_trains_nothing(tmp_
 
 
 def test_the_list_groups_every_experiment_by_what_it_is_for(capsys):
-    from mjx_skills.sweeps.experiments import GROUPS
+    from mjx_skills.sweeps.experiment_file import GROUPS
 
     sweep.main(["--list"])
     lines = capsys.readouterr().out.splitlines()
@@ -437,9 +438,9 @@ def test_the_list_groups_every_experiment_by_what_it_is_for(capsys):
 
 
 def test_an_experiment_file_must_say_what_it_is_for(tmp_path, monkeypatch):
-    from mjx_skills.sweeps import experiments
+    from mjx_skills.sweeps import experiment_file
 
-    monkeypatch.setattr(experiments, "EXPERIMENTS", tmp_path)
+    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
     body = 'description = "t"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
     (tmp_path / "a.toml").write_text(body)
     with pytest.raises(ValueError, match="group must be one of thesis, beyond, baseline"):

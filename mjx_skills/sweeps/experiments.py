@@ -25,32 +25,21 @@ default, or `headline`: reported as a result, so its seeds must not meet the tun
 `samples`, with optional `[library]` overrides (LibraryConfig fields, e.g. `anchor =
 "goal"`); they share one work directory, so the skills are trained once.
 
-Every name is checked when the file is read, so a typo fails before any training.
+A variant states only what it changes: `extends = "PARENT"` merges PARENT's keys under its
+own (`sweeps.experiment_file`). Every name is checked when the file is read, so a typo
+fails before any training.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import itertools
-import tomllib
 import typing
-from pathlib import Path
 from typing import Any
 
 from mjx_skills.sweeps.cell import Cell
+from mjx_skills.sweeps.experiment_file import GROUPS, read
 from mjx_skills.sweeps.seeds import ROLES, check_headline_seeds, seed_range
-
-EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
-GROUPS = {
-    "thesis": "reproduce the thesis's figures and tables",
-    "beyond": "go beyond the thesis (methods and tasks of this project)",
-    "baseline": "baselines and bounds the results are set against",
-    "tuning": "candidates measured to choose a default (seeds 0-4)",
-    "ablation": "a default with one part removed",
-    "diagnostic": "checks of the pipeline and explanations of a shortfall",
-    "adhoc": "a grid given on the command line",
-}
-"""What an experiment is for: every file in experiments/ declares one (`group = ...`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -316,58 +305,11 @@ class Experiment:
         return out
 
 
-def names() -> list[str]:
-    return sorted(p.stem for p in EXPERIMENTS.glob("*.toml"))
-
-
 def load_experiment(name: str) -> Experiment:
-    path = EXPERIMENTS / f"{name}.toml"
-    if not path.exists():
-        raise ValueError(f"unknown experiment {name!r}; valid: {', '.join(names())}")
-    try:
-        raw = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as err:
-        raise ValueError(f"{path} is not valid TOML: {err}") from None
+    """experiments/NAME.toml, its `extends` chain merged (`experiment_file.read`), checked
+    whole (ValueError naming the file and key)."""
     known = {f.name for f in dataclasses.fields(Experiment)} - {"name"}
-    if set(raw) - known:
-        raise ValueError(
-            f"{path}: unknown key(s) {sorted(set(raw) - known)}; valid: {sorted(known)}"
-        )
-    if raw.get("kind") == "library":
-        extra = sorted(set(raw) - LIBRARY_KEYS)
-        if extra:
-            raise ValueError(
-                f"{path}: a library experiment does not read {extra}; valid: {sorted(LIBRARY_KEYS)}"
-            )
-    elif set(raw) & {"samples", "library"}:
-        raise ValueError(f'{path}: samples and [library] need kind = "library"')
-    if "libraries" in raw and not any(
-        _library_method(m) for m in raw.get("methods", ()) if isinstance(m, str)
-    ):
-        raise ValueError(
-            f"{path}: libraries are set but no method of {raw.get('methods')} uses one"
-        )
-    if raw.get("group") in (None, "adhoc"):
-        valid = ", ".join(g for g in GROUPS if g != "adhoc")
-        raise ValueError(f"{path}: group must be one of {valid} (what the experiment is for)")
-    if raw.get("baseline") and raw["baseline"] not in names():
-        raise ValueError(
-            f"{path}: baseline {raw['baseline']!r} is no experiment; valid: {', '.join(names())}"
-        )
-    for key in ("tasks", "methods", "libraries", "samples"):
-        if key in raw:
-            raw[key] = tuple(raw[key])
-    return Experiment(name=name, **raw)
-
-
-LIBRARY_KEYS = {"description", "group", "kind", "samples", "library"}
-"""What a `kind = "library"` file reads: its other keys would be dropped, so are refused."""
-
-
-def _library_method(method: str) -> bool:
-    from mjx_skills import methods
-
-    return method in methods.METHODS and methods.get(method).library_group is not None
+    return Experiment(name=name, **read(name, known))
 
 
 def adhoc(name: str, tasks, methods, libraries=None) -> Experiment:

@@ -1,5 +1,5 @@
 """`python -m mjx_skills.sweep --list`: the experiments grouped by what they are for
-(`experiments.GROUPS`), each with how many of its cells are stored and what the rest
+(`experiment_file.GROUPS`), each with how many of its cells are stored and what the rest
 would cost here (`sweeps.cost`)."""
 
 from __future__ import annotations
@@ -7,7 +7,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from mjx_skills.sweeps.cells import STORE
-from mjx_skills.sweeps.experiments import GROUPS, Experiment, load_experiment, names
+from mjx_skills.sweeps.experiment_file import GROUPS, names
+from mjx_skills.sweeps.experiments import Experiment, load_experiment
 
 
 def cost_text(exp: Experiment, jobs: int, store: Path) -> tuple[int, str]:
