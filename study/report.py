@@ -31,6 +31,7 @@ from study.sections import (
     VARIANTS,
     cell_rows,
     presets,
+    search_worth,
     table,
     table5_1,
     variant_rows,
@@ -111,6 +112,8 @@ def render(r: Results, draw: bool = True) -> str:
                 "'higher at the end' / 'faster': whose interval of the last-5 mean / of the "
                 "mean over epochs lies entirely above the other's ('overlap': neither's).",
             ]
+            if experiment == "random_explorer":
+                lines += search_worth(r)
             if experiment == "fast":
                 lines += [
                     "",

@@ -21,6 +21,7 @@ EXPERIMENTS = (
     "pas_single_goal",
     "take_out_held",
     "oracle",
+    "random_explorer",
     "bc",
     "bc_weight",
     *faster.EXPERIMENTS,

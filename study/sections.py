@@ -124,6 +124,7 @@ VARIANTS = {
     "pas_single_goal": ("single goal", None),
     "take_out_held": ("held starts", None),
     "oracle": ("oracle explorer", None),
+    "random_explorer": ("random skill explorer", None),
     "bc": ("", "ddpg_her_sl"),
     "bc_weight": ("weight 10", "ddpg_her_sl"),
     "fast": ("second default", "ddpg_her_sl"),
@@ -185,6 +186,8 @@ TITLES = {
     "pas_single_goal": "Why PAS falls short on pick_move: PAS with the thesis's single goal",
     "take_out_held": "Why DDPG+HER falls short on take_out: half the starts with the cube in hand",
     "oracle": "The upper bound of exploration: DDPG+HER with the scripted controllers as its explorer",
+    "random_explorer": "The trivial baseline of the search: DDPG+HER+SL exploring with a random "
+    "skill and goal",
     "bc": "Beyond the thesis: DDPG+HER+SL+BC, the explorer's skills cloned where the critic agrees",
     "bc_weight": "DDPG+HER+SL+BC with ten times the cloning weight",
     **faster.TITLES,
@@ -214,4 +217,39 @@ def trivial_predictor(label: str, manifest: dict) -> list[str]:
         f"beats the trivial predictor for {len(model_wins)} of {len(goal)} skills "
         f"({', '.join(model_wins) or 'none'}), our memory for {len(memory_wins)} "
         f"({', '.join(memory_wins) or 'none'}).",
+    ]
+
+
+def search_worth(r: Results) -> list[str]:
+    """What the look-ahead search is worth over the random-skill explorer (the same learner,
+    eps schedule and library): P(search > random) over seeds for the mean over epochs and
+    the last 5 (rliable's probability of improvement, 95 % interval)."""
+    from mjx_skills.analysis import stats
+
+    out = []
+    for cell, random in r.cells["random_explorer"]:
+        base_cell, search = r.find("fig6_3", cell.task, cell.method)
+        if random is None or search is None:
+            continue
+        a = stats.scores_from_rows(r.metrics[base_cell.name])
+        b = stats.scores_from_rows(r.metrics[cell.name])
+        p = {
+            what: stats.improvement(pick(a), pick(b))
+            for what, pick in (
+                ("mean over epochs", lambda x: x.mean(axis=1)),
+                ("last 5 epochs", lambda x: x[:, -stats.LAST :].mean(axis=1)),
+            )
+        }
+        text = "; ".join(f"{w} {v[0]:.2f} [{v[1]:.2f}, {v[2]:.2f}]" for w, v in p.items())
+        better = [w for w, v in p.items() if v[1] > 0.5]
+        verdict = f"measurably better in the {' and the '.join(better)}" if better else "none"
+        out.append(f"- {cell.task}: P(search > random skill) {text}; gain: {verdict}.")
+    if not out:
+        return []
+    return [
+        "",
+        "What the search is worth (a seed of the search against a seed of the random-skill "
+        "explorer; meaningful when the interval's low end is above 0.5):",
+        "",
+        *out,
     ]
