@@ -28,6 +28,7 @@ from typing import Any
 import jax
 import numpy as np
 
+from mjx_skills.core import plugins
 from mjx_skills.core.precision import use_float32
 from mjx_skills.evaluate import TrainedRun, evaluate_jax, load_trained, seed_agent
 from mjx_skills.training.epoch import compiler_options
@@ -113,8 +114,11 @@ def load(run_dir: str | Path, seed: int = 0, physics: str = "native") -> Policy:
     """The policy of trained seed `seed` of the run in `run_dir` (a directory
     `python -m mjx_skills.train` wrote), restored from its newest checkpoint without writing
     anything; `physics` ('native' or 'mjx') is the backend its env steps on.
-    FileNotFoundError: not a run or no checkpoint; ValueError: a seed the run did not train."""
+    A run of a task of your own needs the module that registers it: set MJX_SKILLS_IMPORT
+    (`core.plugins`) before calling. FileNotFoundError: not a run or no checkpoint;
+    ValueError: a seed the run did not train."""
     use_float32()
+    plugins.load_all()  # a run of a task of your own: MJX_SKILLS_IMPORT names its module
     run = load_trained(Path(run_dir), physics=physics)
     seeds = run.args.train.seeds
     if not 0 <= seed < seeds:

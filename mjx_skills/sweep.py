@@ -68,6 +68,7 @@ def run_cell(cell: Cell, cell_dir: str, progress: bool, store: str) -> str:
     from mjx_skills.sweeps import cells
     from mjx_skills.training.runner import RunArgs, train_run
 
+    plugins.load_all()  # a worker process: the user's modules, as its parent had them
     compile_cache.enable()
     use_float32()
     run_dir = cell_run_dir(Path(cell_dir))
@@ -201,6 +202,8 @@ def main(argv: list[str] | None = None) -> None:
     from mjx_skills.core.workers import usable_cores
 
     jobs = args.jobs or usable_cores()
+    if args.store.exists() and not args.store.is_dir():
+        raise SystemExit(f"error: --store {args.store} is a file, not a directory of cells")
     if args.list:
         from mjx_skills.sweeps.listing import listing
 

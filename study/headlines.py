@@ -13,7 +13,7 @@ import numpy as np
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import read_json
 from mjx_skills.sweeps import cells
-from mjx_skills.sweeps.experiment_file import names
+from mjx_skills.sweeps.experiment_file import names, raw
 from mjx_skills.sweeps.experiments import Experiment, load_experiment
 from mjx_skills.sweeps.seeds import check_headline, describe, seed_range
 from study.sections import table
@@ -34,9 +34,10 @@ HEADER = ["measure", "headline", "matched baseline", "P(headline > baseline)"]
 
 
 def experiments() -> list[Experiment]:
-    """The headline experiments (with a target), in name order."""
-    found = [load_experiment(name) for name in names()]
-    return [exp for exp in found if exp.role == "headline" and exp.target]
+    """The headline experiments (with a target), in name order. Only those are loaded: a
+    file of a user's task that needs `--import` does not stop the report."""
+    wanted = [n for n in names() if raw(n).get("role") == "headline" and raw(n).get("target")]
+    return [load_experiment(name) for name in wanted]
 
 
 def stored_scores(exp: Experiment, store: Path) -> np.ndarray | None:
@@ -79,6 +80,12 @@ def report(exp: Experiment, store: Path = cells.STORE) -> list[str]:
     if base_exp is not None and (base_exp.seed, base_exp.seeds) != (exp.seed, exp.seeds):
         raise ValueError(f"headline {exp.name}: its baseline {exp.baseline} runs other seeds")
     base = stored_scores(base_exp, store) if base_exp is not None else None
+    short = [e.name for e in (exp, base_exp) if e is not None and e.epochs < epoch]
+    if epoch < stats.WINDOW or short:
+        raise ValueError(
+            f"headline {exp.name}: its target epoch {epoch} needs a full {stats.WINDOW}-epoch "
+            f"window and every cell to run that long ({', '.join(short) or 'too early'})"
+        )
     missing = [e.name for e, s in ((exp, ours), (base_exp, base)) if e is not None and s is None]
     if missing:
         commands = "; ".join(f"`python -m mjx_skills.sweep --experiment {n}`" for n in missing)

@@ -242,3 +242,21 @@ def test_a_variant_states_only_what_it_changes(tmp_path, monkeypatch):
     (tmp_path / "orphan.toml").write_text('extends = "gone"\ndescription = "o"\ngroup = "beyond"\n')
     with pytest.raises(ValueError, match="unknown experiment 'gone' \\(extended by orphan\\)"):
         load_experiment("orphan")
+
+
+def test_a_variant_names_its_own_cells_and_says_what_it_is(tmp_path, monkeypatch):
+    """A variant never takes its parent's label (its cells would take the parent's names);
+    a file without a description, or whose baseline is itself, is refused by name."""
+    from mjx_skills.sweeps import experiment_file
+
+    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
+    body = 'group = "beyond"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
+    (tmp_path / "p.toml").write_text(f'description = "p"\nlabel = "parent"\n{body}')
+    (tmp_path / "c.toml").write_text('extends = "p"\ndescription = "c"\ngroup = "ablation"\n')
+    assert load_experiment("p").cells()[0].name != load_experiment("c").cells()[0].name
+    (tmp_path / "nodesc.toml").write_text(body)
+    with pytest.raises(ValueError, match="description is missing"):
+        load_experiment("nodesc")
+    (tmp_path / "self.toml").write_text(f'description = "s"\nbaseline = "self"\n{body}')
+    with pytest.raises(ValueError, match="baseline names the experiment itself"):
+        load_experiment("self")

@@ -74,3 +74,25 @@ def test_a_sweeps_worker_processes_see_the_users_task(tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     rows = (tmp_path / "results" / "adhoc.csv").read_text().splitlines()
     assert sorted(r.split(",")[1] for r in rows[1:]) == ["lift", "transit"]
+
+
+def test_modules_of_one_name_in_two_folders_both_load_and_the_variable_is_named(
+    tmp_path, monkeypatch
+):
+    """Two task.py files register two tasks; `~` is expanded; MJX_SKILLS_IMPORT's entries
+    are stripped, and a missing one is named as coming from the variable."""
+    monkeypatch.setattr(registry, "ENVS", dict(registry.ENVS))
+    monkeypatch.setenv(plugins.ENV, "")
+    monkeypatch.setenv("HOME", str(tmp_path))
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "task.py").write_text(
+            "from mjx_skills.envs.registry import ENVS, register_task\n"
+            f"register_task('task_{folder}', ENVS['pick_move'])\n"
+        )
+    plugins.take_imports(["--import", "~/a/task.py", f"--import={tmp_path / 'b' / 'task.py'}"])
+    assert {"task_a", "task_b"} <= set(registry.ENVS)
+    monkeypatch.setenv(plugins.ENV, f" {tmp_path / 'a' / 'task.py'} , nowhere_mod ")
+    assert plugins.named() == [str(tmp_path / "a" / "task.py"), "nowhere_mod"]
+    with pytest.raises(SystemExit, match="MJX_SKILLS_IMPORT: nowhere_mod: no module"):
+        plugins.take_imports([])

@@ -261,6 +261,9 @@ def test_a_headline_is_reported_against_its_baseline_on_fresh_seeds_only(tmp_pat
     assert "| reaches 0.9 at epoch | 7 [7, 7] | never [never, never] | - |" in text
     assert "| IQM, epochs 4-8 | 1.00 [1.00, 1.00] | 0.00 [0.00, 0.00] | 1.00 [1.00, 1.00] |" in text
     assert "(0.9 by epoch 8, seeds 100-105): **met**" in text
+    early = dataclasses.replace(head, target={"level": 0.9, "epoch": 3})
+    with pytest.raises(ValueError, match="needs a full 5-epoch window"):
+        headlines.report(early, store)  # its IQM window would be empty: nan, not a number
     tuned = dataclasses.replace(head, seed=0, role="tuning", label="t")
     stored(tuned, lambda e: 1.0)
     with pytest.raises(ValueError, match="tuning seeds"):

@@ -450,3 +450,16 @@ def test_an_experiment_file_must_say_what_it_is_for(tmp_path, monkeypatch):
         load_experiment("b")
     (tmp_path / "c.toml").write_text(body + 'group = "diagnostic"\n')
     assert load_experiment("c").group == "diagnostic"
+
+
+def test_the_list_names_a_file_it_cannot_read_and_lists_the_rest(tmp_path, monkeypatch, capsys):
+    from mjx_skills.sweeps import experiment_file
+
+    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
+    body = 'group = "diagnostic"\nmethods = ["ddpg_her"]\n'
+    (tmp_path / "good.toml").write_text(f'description = "g"\ntasks = ["transit"]\n{body}')
+    (tmp_path / "mine.toml").write_text(f'description = "m"\ntasks = ["lift"]\n{body}')
+    sweep.main(["--list", "--store", str(tmp_path / "store")])
+    out = capsys.readouterr().out
+    assert "mine: cannot be read: " in out and "unknown task 'lift'" in out and "--import" in out
+    assert "  good " in out

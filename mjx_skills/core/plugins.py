@@ -5,12 +5,13 @@ working directory, or a path to a .py file), and `MJX_SKILLS_IMPORT=mod1,mod2` d
 same from the environment. The modules are imported before the command reads its
 arguments; a module registers its tasks and robots when imported
 (`mjx_skills.envs.registry.register_task`, `register_robot`). The names are kept in the
-environment variable, so the worker processes a sweep spawns import them too (the registry
-imports them when it is first imported).
+environment variable, so the worker processes a sweep spawns import them too (a worker
+loads them before its cell: `load_named`), as does `api.load`.
 """
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import importlib.util
 import os
@@ -23,20 +24,21 @@ HELP = "a module of yours (dotted name or .py path) that registers tasks or robo
 
 
 def named() -> list[str]:
-    """The modules MJX_SKILLS_IMPORT names, in order."""
-    return [m for m in os.environ.get(ENV, "").split(",") if m.strip()]
+    """The modules MJX_SKILLS_IMPORT names, in order (spaces around the commas dropped)."""
+    return [m.strip() for m in os.environ.get(ENV, "").split(",") if m.strip()]
 
 
-def load(module: str) -> None:
-    """Import `module` (a dotted name, or a path to a .py file) once. ValueError naming it and
-    the way it was given when it cannot be found."""
+def load(module: str, given: str = FLAG) -> None:
+    """Import `module` (a dotted name importable from the working directory, or a path to a
+    .py file) once. ValueError naming it and how it was `given` when it cannot be found."""
     if module.endswith(".py"):
         path = Path(module).expanduser().resolve()
-        name = f"mjx_skills_user_{path.stem}"
+        digest = hashlib.sha1(str(path).encode()).hexdigest()[:8]  # two task.py files differ
+        name = f"mjx_skills_user_{path.stem}_{digest}"
         if name in sys.modules:
             return
         if not path.is_file():
-            raise ValueError(f"{FLAG} {module}: no such file")
+            raise ValueError(f"{given} {module}: no such file")
         spec = importlib.util.spec_from_file_location(name, path)
         loaded = importlib.util.module_from_spec(spec)
         sys.modules[name] = loaded
@@ -46,12 +48,14 @@ def load(module: str) -> None:
             del sys.modules[name]
             raise
         return
+    if os.getcwd() not in sys.path and "" not in sys.path:  # a console script's sys.path
+        sys.path.insert(0, os.getcwd())
     try:
         importlib.import_module(module)
     except ModuleNotFoundError as err:
         if err.name and module.startswith(err.name):
             raise ValueError(
-                f"{FLAG} {module}: no module {err.name!r} importable from {Path.cwd()} "
+                f"{given} {module}: no module {err.name!r} importable from {Path.cwd()} "
                 f"(or give the path of its .py file; {ENV} names modules too)"
             ) from None
         raise
@@ -74,18 +78,24 @@ def take_imports(argv: list[str], load_now: bool = True) -> list[str]:
             modules.append(arg.partition("=")[2])
         else:
             rest.append(arg)
-    modules = [str(Path(m).resolve()) if m.endswith(".py") else m for m in modules]
+    modules = [str(Path(m).expanduser().resolve()) if m.endswith(".py") else m for m in modules]
     if modules:
         os.environ[ENV] = ",".join(dict.fromkeys([*named(), *modules]))
     if load_now:
-        load_named()
+        load_named(modules)
     return rest
 
 
-def load_named() -> None:
-    """Import every module MJX_SKILLS_IMPORT names; SystemExit with one line if one is missing."""
+def load_all(flagged: list[str] = ()) -> None:
+    """Import every module MJX_SKILLS_IMPORT names. ValueError naming a missing one and how
+    it was given (`flagged`: the ones from `--import`)."""
+    for module in named():
+        load(module, FLAG if module in flagged else f"{ENV}:")
+
+
+def load_named(flagged: list[str] = ()) -> None:
+    """`load_all` for a command: SystemExit with one line if a module is missing."""
     try:
-        for module in named():
-            load(module)
+        load_all(flagged)
     except ValueError as err:
         raise SystemExit(f"error: {err}") from None

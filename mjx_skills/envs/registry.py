@@ -52,7 +52,10 @@ SKILL_ROBOTS = {BAXTER["transit"].robot_name: SKILLS}
 def check_name(name: str) -> None:
     """ValueError naming the valid tasks if `name` is not one."""
     if name not in ENVS:
-        raise ValueError(f"unknown task {name!r}; valid: {', '.join(ENVS)}")
+        raise ValueError(
+            f"unknown task {name!r}; valid: {', '.join(ENVS)} (a task of your own: pass the "
+            "module that registers it with --import MODULE or MJX_SKILLS_IMPORT)"
+        )
 
 
 def check_robot(name: str) -> None:
@@ -112,15 +115,3 @@ def register_robot(cls: type) -> None:
     if name in ROBOTS:
         raise ValueError(f"robot {name!r} is registered already ({ROBOTS[name].__qualname__})")
     ROBOTS[name] = cls
-
-
-def _import_user_modules() -> None:
-    """The modules MJX_SKILLS_IMPORT names (`core.plugins`), imported once the registry is
-    whole: in a sweep's worker processes too, which inherit the variable."""
-    from mjx_skills.core import plugins
-
-    for module in plugins.named():
-        plugins.load(module)
-
-
-_import_user_modules()

@@ -220,9 +220,12 @@ def report(exp: Experiment, jobs: int, store: Path = STORE) -> str:
     lines = [f"{name:50s} {s / 60:6.1f} min" for name, s in est["cells"].items()]
     lines += [f"{name:50s} stored (taken from {store})" for name in est["stored"]]
     total = len(est["cells"]) + len(est["stored"])
-    lines.append(
-        f"{exp.name}: {total} cells, {len(est['stored'])} stored; "
-        f"{est['wall_s'] / 3600:.2f} h with --jobs {est['jobs']} "
-        f"({est['cores_per_job']} core(s) each; {est['serial_s'] / 3600:.2f} h of cell time)"
-    )
+    head = f"{exp.name}: {total} cells, {len(est['stored'])} stored; "
+    if est["cells"]:
+        lines.append(
+            f"{head}{est['wall_s'] / 3600:.2f} h with --jobs {est['jobs']} "
+            f"({est['cores_per_job']} core(s) each; {est['serial_s'] / 3600:.2f} h of cell time)"
+        )
+    else:
+        lines.append(f"{head}0.00 h: nothing to train")
     return "\n".join([*lines, json.dumps(est)])

@@ -4,7 +4,8 @@ need the file's own keys (`experiments.load_experiment` builds the Experiment fr
 A variant states only what it changes: `extends = "PARENT"` takes PARENT's keys (its own
 `extends` first), the variant's keys override them, and its tables (`[train]`, `[env]`,
 `[library]`, `[options.METHOD.GROUP]`) are merged key by key. What an experiment is
-(`description`, `group`) and a headline's `baseline` and `target` are never inherited.
+(`description`, `group`), its cells' `label` (a variant's cells must not take its parent's
+names) and a headline's `baseline` and `target` are never inherited.
 
     extends = "fast"
     description = "DDPG+HER+SL+Fast's second default on container_wall"
@@ -30,7 +31,7 @@ GROUPS = {
 }
 """What an experiment is for: every file in experiments/ declares one (`group = ...`)."""
 
-NOT_INHERITED = ("description", "group", "baseline", "target")
+NOT_INHERITED = ("description", "group", "label", "baseline", "target")
 """Keys a variant does not take from the file it extends."""
 
 
@@ -96,9 +97,13 @@ def read(name: str, known: set[str]) -> dict[str, Any]:
         raise ValueError(
             f"{path}: libraries are set but no method of {fields.get('methods')} uses one"
         )
+    if not isinstance(fields.get("description"), str):
+        raise ValueError(f"{path}: description is missing: say what the experiment is")
     if fields.get("group") in (None, "adhoc"):
         valid = ", ".join(g for g in GROUPS if g != "adhoc")
         raise ValueError(f"{path}: group must be one of {valid} (what the experiment is for)")
+    if fields.get("baseline") == name:
+        raise ValueError(f"{path}: baseline names the experiment itself")
     if fields.get("baseline") and fields["baseline"] not in names():
         raise ValueError(
             f"{path}: baseline {fields['baseline']!r} is no experiment; valid: {', '.join(names())}"

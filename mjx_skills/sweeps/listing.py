@@ -32,11 +32,16 @@ def listing(jobs: int = 1, store: Path = STORE) -> str:
     wall time of the cells not stored (`jobs` at once; '?' where a method's cost was never
     measured, '-' for library experiments) and its description."""
     by_group: dict[str, list[Experiment]] = {g: [] for g in GROUPS}
+    broken = []
     for name in names():
-        exp = load_experiment(name)
+        try:
+            exp = load_experiment(name)
+        except ValueError as err:  # e.g. a task of a module not imported: say so, list the rest
+            broken.append(f"  {name}: cannot be read: {err}")
+            continue
         by_group[exp.group].append(exp)
     width = max(len(n) for n in names())
-    lines = []
+    lines = [] if not broken else ["unreadable:", *broken]
     for group, exps in by_group.items():
         if not exps:
             continue
