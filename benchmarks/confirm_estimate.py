@@ -15,10 +15,15 @@ import argparse
 import json
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 from mjx_skills.sweeps import cost
 from mjx_skills.sweeps.experiments import adhoc
+
+RESULTS = Path(__file__).resolve().parent / "results"
+"""Where the sweep's CSV and per-seed JSONL go (speed_report reads the epoch-1 times)."""
 
 
 def main() -> None:
@@ -31,11 +36,13 @@ def main() -> None:
     p.add_argument("--name", required=True)
     args = p.parse_args()
     exp = adhoc(args.name, args.tasks, args.methods).with_budget(args.seeds, args.epochs)
-    est = cost.estimate(exp, args.jobs)
+    est = cost.estimate(exp, args.jobs, from_scratch=True)
     print(json.dumps({"estimate": est}), flush=True)
     cmd = [sys.executable, "-m", "mjx_skills.sweep", "--name", args.name, "--tasks", *args.tasks,
            "--methods", *args.methods, "--seeds", str(args.seeds), "--epochs", str(args.epochs),
-           "--jobs", str(args.jobs), "--no-progress", "--overwrite"]  # fmt: skip
+           "--jobs", str(args.jobs), "--no-progress", "--overwrite",
+           # Every cell trained (a fresh store), its per-seed rows beside the benchmark's.
+           "--store", tempfile.mkdtemp(), "--results", str(RESULTS)]  # fmt: skip
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True)
     wall = time.perf_counter() - t0

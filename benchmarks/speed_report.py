@@ -127,8 +127,8 @@ def curve_summary(rows: list[dict]) -> tuple[float, int | None]:
 
 def first_epochs(name: str) -> list[str]:
     """Seconds to the end of epoch 1 (trace, compile, the first epoch) per pick_move method."""
-    rows = [json.loads(line) for line in (ROOT / "experiments" / "results" / "archive" /
-                                          f"{name}.jsonl").open()]  # fmt: skip
+    # The per-seed rows of the sweep that confirmed the estimate (benchmarks/confirm_estimate.py).
+    rows = [json.loads(line) for line in (RESULTS / f"{name}.jsonl").open()]
     first = {r["method"]: r["wall_s"] for r in rows
              if r["task"] == "pick_move" and r["epoch"] == 1 and r["seed"] == 0}  # fmt: skip
     cells = "; ".join(f"{s.label} {first[m]:.0f} s" for m, s in METHODS.items() if m in first)
