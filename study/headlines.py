@@ -86,10 +86,9 @@ def report(exp: Experiment, store: Path = cells.STORE) -> list[str]:
             f"headline {exp.name}: its target epoch {epoch} needs a full {stats.WINDOW}-epoch "
             f"window and every cell to run that long ({', '.join(short) or 'too early'})"
         )
-    missing = [e.name for e, s in ((exp, ours), (base_exp, base)) if e is not None and s is None]
-    if missing:
-        commands = "; ".join(f"`python -m mjx_skills.sweep --experiment {n}`" for n in missing)
-        return [*lines, f"Not run yet on seeds {seeds}: {commands}."]
+    run = lambda name: f"`python -m mjx_skills.sweep --experiment {name}`"  # noqa: E731
+    if ours is None:
+        return [*lines, f"Not run yet on seeds {seeds}: {run(exp.name)}."]
     window = slice(epoch - stats.WINDOW, epoch)
     at, last = (lambda s: s[:, window].mean(axis=1)), (lambda s: s[:, -stats.LAST :].mean(axis=1))
     rows = [[f"reaches {level} at epoch", _reach(ours, level), "-", "-"]]
@@ -102,11 +101,16 @@ def report(exp: Experiment, store: Path = cells.STORE) -> list[str]:
         rows.append(row)
     hit = stats.first_reaching(ours.mean(axis=0), level)
     verdict = "met" if hit is not None and hit <= epoch else "missed"
+    pending = []
+    if base_exp is not None and base is None:
+        rows = [[*row[:2], "not run yet", "-"] for row in rows]
+        pending = [f"The matched baseline is not run yet: {run(base_exp.name)}."]
     return [
         *lines,
         *table(HEADER, rows),
         "",
         f"**Target** ({level} by epoch {epoch}, seeds {seeds}): **{verdict}**.",
+        *pending,
     ]
 
 

@@ -256,6 +256,9 @@ def test_a_headline_is_reported_against_its_baseline_on_fresh_seeds_only(tmp_pat
     head, base = experiments.load_experiment("head"), experiments.load_experiment("base")
     assert "Not run yet on seeds 100-105" in " ".join(headlines.report(head, store))
     stored(head, lambda e: 1.0 if e >= 3 else 0.0)
+    alone = "\n".join(headlines.report(head, store))  # the baseline still to run
+    assert "| reaches 0.9 at epoch | 7 [7, 7] | not run yet | - |" in alone
+    assert "**met**" in alone and "baseline is not run yet: `python -m mjx_skills.sweep" in alone
     stored(base, lambda e: 0.0)
     text = "\n".join(headlines.report(head, store))
     assert "| reaches 0.9 at epoch | 7 [7, 7] | never [never, never] | - |" in text
