@@ -77,3 +77,52 @@ def figure(r: Results, experiment: str, out: Path, draw: bool = True) -> Path | 
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return out
+
+
+PROFILE_TAUS = np.linspace(0.0, 1.0, 21)
+"""The success levels a performance profile is read at."""
+
+
+def profiles(r: Results, out: Path, draw: bool = True) -> Path | None:
+    """Fig. 6.3's methods as performance profiles over its four tasks (rliable): the share of
+    runs x tasks whose last-5 success is above each level, with 95 % stratified bootstrap
+    bands -> `out` (None until every cell is in)."""
+    from mjx_skills.analysis import stats
+    from study.claims import THESIS_METHODS
+
+    tasks = list(dict.fromkeys(c.task for c, _ in r.cells["fig6_3"]))
+    cells = {m: [r.get("fig6_3", t, m) for t in tasks] for m in THESIS_METHODS}
+    if any(s is None for row in cells.values() for s in row):
+        return None
+    if not draw:
+        return out
+    scores = {}
+    for method in THESIS_METHODS:
+        per_task = []
+        for task in tasks:
+            cell, _ = r.find("fig6_3", task, method)
+            s = stats.scores_from_rows(r.metrics[cell.name])
+            per_task.append(s[:, -stats.LAST :].mean(axis=1))
+        scores[method] = np.stack(per_task, axis=1)  # (seeds, tasks)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.2, 3.6))
+    for method, (profile, low, high) in stats.performance_profile(scores, PROFILE_TAUS).items():
+        colour = f"C{list(LABEL).index(method)}"
+        ax.plot(PROFILE_TAUS, profile, color=colour, lw=1.6, label=LABEL[method])
+        ax.fill_between(PROFILE_TAUS, low, high, color=colour, alpha=0.2, lw=0)
+    ax.set(
+        xlabel="eval success, last 5 epochs (tau)",
+        ylabel="share of runs x tasks above tau",
+        ylim=(-0.02, 1.02),
+    )
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, frameon=False)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out

@@ -23,7 +23,7 @@ from mjx_skills.analysis import stats
 from mjx_skills.core.files import write_text_atomic
 from study import faster, headlines, two_cubes
 from study.claims import FAILS, LABEL, LEARNS, THESIS_METHODS, ci, claims
-from study.figures import figure
+from study.figures import figure, profiles
 from study.results import EXPERIMENTS, Results
 from study.sections import (
     CELL_HEADER,
@@ -90,6 +90,15 @@ def render(r: Results, draw: bool = True) -> str:
         lines += ["", f"## {TITLES[experiment]}", ""]  # (fast_*: in fast's section)
         if figure(r, experiment, FIGURES / f"{experiment}.png", draw) is not None:
             lines += [f"![{TITLES[experiment]}](figures/{experiment}.png)", ""]
+        if experiment == "fig6_3" and profiles(r, FIGURES / "profiles.png", draw) is not None:
+            lines += [
+                "![Performance profiles of Fig. 6.3's methods](figures/profiles.png)",
+                "",
+                "Performance profiles (Agarwal et al. 2021): for each method, the share of its "
+                "runs x tasks (5 seeds x 4 tasks) whose last-5 success is above each level, "
+                "with 95 % stratified bootstrap bands.",
+                "",
+            ]
         if experiment in VARIANTS:
             lines += [
                 *(presets() + [""] if experiment == "thesis_preset" else []),

@@ -293,3 +293,12 @@ def test_converging_to_the_optimal_policy_needs_an_interval_that_reaches_one():
     assert not claims.reaches_one(SimpleNamespace(last=(0.95, 0.93, 0.97)))
     assert claims.reaches_one(SimpleNamespace(last=(0.99, 0.97, 1.0)))
     assert claims.reaches_one(SimpleNamespace(last=(0.99, 0.97, 1.0 - 1e-9)))
+
+
+def test_a_performance_profile_is_the_share_of_runs_above_each_level():
+    taus = np.array([0.0, 0.25, 0.5, 1.0])
+    scores = {"a": np.full((3, 2), 0.6), "b": np.array([[0.0, 1.0], [0.0, 1.0], [0.0, 1.0]])}
+    out = stats.performance_profile(scores, taus)
+    assert np.allclose(out["a"][0], [1, 1, 1, 0]) and np.allclose(out["b"][0], [0.5, 0.5, 0.5, 0])
+    for profile, low, high in out.values():
+        assert np.all(low <= profile + 1e-9) and np.all(profile <= high + 1e-9)

@@ -9,6 +9,7 @@ over seeds with a fixed generator, so a report regenerates bit for bit.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import warnings
 
@@ -23,26 +24,48 @@ WINDOW = 5
 """Epochs of the rolling mean that decides when a level is reached."""
 
 
-def _bootstrap(score_dict: dict, func, seed: int) -> tuple[dict, dict]:
-    """rliable's stratified bootstrap interval estimates (`REPS`, 95 %), reproducible: rliable
-    1.2's StratifiedBootstrap draws its indices from NumPy's global generator
-    (np.random.choice) whatever `random_state` says, so that one is seeded and restored."""
-    from rliable import library as rly
-
+@contextlib.contextmanager
+def _seeded(seed: int):
+    """rliable 1.2's StratifiedBootstrap draws its indices from NumPy's global generator
+    (np.random.choice) whatever `random_state` says: seed that one, and restore it after,
+    so that a report regenerates bit for bit."""
     saved = np.random.get_state()  # noqa: NPY002 - rliable reads the legacy generator
     np.random.seed(seed)  # noqa: NPY002
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # arch's notice about RandomState
-            return rly.get_interval_estimates(
-                score_dict,
-                func,
-                reps=REPS,
-                confidence_interval_size=CONFIDENCE,
-                random_state=np.random.RandomState(seed),
-            )
+            yield
     finally:
         np.random.set_state(saved)  # noqa: NPY002
+
+
+def _bootstrap(score_dict: dict, func, seed: int) -> tuple[dict, dict]:
+    """rliable's stratified bootstrap interval estimates (`REPS`, 95 %), reproducible."""
+    from rliable import library as rly
+
+    with _seeded(seed):
+        return rly.get_interval_estimates(
+            score_dict,
+            func,
+            reps=REPS,
+            confidence_interval_size=CONFIDENCE,
+            random_state=np.random.RandomState(seed),
+        )
+
+
+def performance_profile(
+    scores: dict[str, np.ndarray], taus: np.ndarray, seed: int = 0
+) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Score distributions (Agarwal et al. 2021's performance profiles): for each method's
+    scores (runs, tasks), the share of runs x tasks scoring above each tau, with its 95 %
+    stratified bootstrap interval -> {method: (profile (len(taus),), low, high)}."""
+    from rliable import library as rly
+
+    with _seeded(seed):
+        profiles, cis = rly.create_performance_profile(
+            {k: np.asarray(v, np.float64) for k, v in scores.items()}, taus, reps=REPS
+        )
+    return {k: (profiles[k], cis[k][0], cis[k][1]) for k in scores}
 
 
 def interval(values: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
