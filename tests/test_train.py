@@ -191,7 +191,10 @@ def test_counters_are_the_x_axes(tmp_path):
     [
         (["--task", "stack"], "valid: transit, grasp"),
         (["--method", "sac"], "method"),
-        (["--method", "pas", "--pas.library-dir", "/nonexistent/lib"], "no skill library"),
+        (
+            ["--method", "pas", "--pas.library-dir", "/nonexistent/lib"],
+            "reads its library from --pas.library-dir",
+        ),
         (["mpas", "--pas.library", "SL4"], "SL4"),
         (["sac", "--task", "transit"], "valid: ddpg_her"),
         (["--epochs", "0"], "epochs"),

@@ -61,7 +61,17 @@ class Method:
         """The read-only input of the jitted epoch: the skill library its option group names
         (None for a method without one)."""
         group = self.library_group
-        return None if group is None else load_library(options[group])
+        if group is None:
+            return None
+        try:
+            return load_library(options[group])
+        except FileNotFoundError as err:  # name the option that points there
+            flag = f"--{group}.library-dir"
+            raise FileNotFoundError(
+                f"{err}; {self.name} reads its library from {flag} "
+                f"(now {options[group].library_dir!r}; a relative path is looked up in the "
+                "working directory, then in the source checkout)"
+            ) from None
 
     def unread_now(self, options: dict[str, Any]) -> dict[str, str]:
         """The options this method does not read with these option groups -> why."""
