@@ -190,6 +190,7 @@ def test_a_headline_names_an_existing_baseline_and_a_target_within_its_budget(
 
     monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
     body = 'description = "t"\ngroup = "beyond"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
+    body += 'role = "headline"\nseed = 100\n'
     cases = {
         'baseline = "nowhere"\n': "baseline 'nowhere' is no experiment; valid: ",
         "target = { level = 0.9 }\n": "target: give level and epoch",
@@ -215,7 +216,7 @@ def test_a_variant_states_only_what_it_changes(tmp_path, monkeypatch):
     monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
     (tmp_path / "base.toml").write_text(
         'description = "b"\ngroup = "beyond"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
-        "seeds = 2\ntarget = { level = 0.5, epoch = 10 }\n"
+        'seeds = 2\nrole = "headline"\nseed = 100\ntarget = { level = 0.5, epoch = 10 }\n'
         "[train]\nenvs = 2\ncycles = 3\n[options.ddpg_her.ddpg]\nbatch_size = 64\ntau = 0.1\n"
     )
     (tmp_path / "child.toml").write_text(
@@ -257,6 +258,14 @@ def test_a_variant_names_its_own_cells_and_says_what_it_is(tmp_path, monkeypatch
     (tmp_path / "nodesc.toml").write_text(body)
     with pytest.raises(ValueError, match="description is missing"):
         load_experiment("nodesc")
-    (tmp_path / "self.toml").write_text(f'description = "s"\nbaseline = "self"\n{body}')
+    (tmp_path / "self.toml").write_text(
+        f'description = "s"\nbaseline = "self"\nrole = "headline"\nseed = 100\n{body}'
+    )
+    (tmp_path / "tuned.toml").write_text(f'description = "t"\nbaseline = "p"\n{body}')
+    with pytest.raises(ValueError, match='read for role = "headline" only'):
+        load_experiment("tuned")
+    (tmp_path / "up.toml").write_text(f'extends = "../p"\ndescription = "u"\n{body}')
+    with pytest.raises(ValueError, match="extends must name an experiment file"):
+        load_experiment("up")
     with pytest.raises(ValueError, match="baseline names the experiment itself"):
         load_experiment("self")

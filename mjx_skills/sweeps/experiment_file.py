@@ -64,8 +64,8 @@ def raw(name: str, chain: tuple[str, ...] = ()) -> dict[str, Any]:
     parent = own.pop("extends", None)
     if parent is None:
         return own
-    if not isinstance(parent, str):
-        raise ValueError(f"{path}: extends must name an experiment, got {parent!r}")
+    if not isinstance(parent, str) or not parent.replace("_", "").isalnum():
+        raise ValueError(f"{path}: extends must name an experiment file, got {parent!r}")
     if parent in (*chain, name):
         raise ValueError(f"{path}: extends loops: {' -> '.join((*chain, name, parent))}")
     base = raw(parent, (*chain, name))
@@ -102,6 +102,8 @@ def read(name: str, known: set[str]) -> dict[str, Any]:
     if fields.get("group") in (None, "adhoc"):
         valid = ", ".join(g for g in GROUPS if g != "adhoc")
         raise ValueError(f"{path}: group must be one of {valid} (what the experiment is for)")
+    if (fields.get("baseline") or fields.get("target")) and fields.get("role") != "headline":
+        raise ValueError(f'{path}: baseline and target are read for role = "headline" only')
     if fields.get("baseline") == name:
         raise ValueError(f"{path}: baseline names the experiment itself")
     if fields.get("baseline") and fields["baseline"] not in names():
