@@ -4,7 +4,7 @@
     python benchmarks/make_train_time.py --method ddpg_her_sl_fast --epochs 40
 
 Runs the command (`METHOD=...`, `EPOCHS=...` when given) with OUT in a fresh directory,
-copies the run's metrics to experiments/results/pick_move_METHOD_make_train.jsonl, measures the final policy on
+copies the run's metrics to benchmarks/results/pick_move_METHOD_make_train.jsonl, measures the final policy on
 100 fresh episodes (`python -m mjx_skills.evaluate`) and prints one JSON line: {"command",
 "method", "wall_s", "curve", "fresh_success", "load_before", "commit"} (load_before: the 1-minute load
 average when it started, after waiting up to 3 min for it to settle below 0.5, since it lags
@@ -42,7 +42,7 @@ def main() -> None:
     p.add_argument("--method", default=DEFAULT, help="METHOD= (default: make's, ddpg_her_sl)")
     p.add_argument("--epochs", type=int, help="EPOCHS= (default: make's, 100)")
     args = p.parse_args()
-    curve = f"experiments/results/pick_move_{args.method}_make_train.jsonl"
+    curve = f"benchmarks/results/pick_move_{args.method}_make_train.jsonl"
     make = ["make", "train", "TASK=pick_move"]
     make += [] if args.method == DEFAULT else [f"METHOD={args.method}"]
     make += [] if args.epochs is None else [f"EPOCHS={args.epochs}"]

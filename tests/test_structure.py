@@ -195,3 +195,37 @@ def test_every_command_has_an_installed_script():
         target = scripts[f"mjx-skills-{command.replace('_', '-')}"]
         assert target == f"mjx_skills.{command}:main", target
         assert callable(importlib.import_module(f"mjx_skills.{command}").main)
+
+
+def test_git_ignores_only_results_that_an_experiment_derives():
+    """CI runs on a fresh clone: a file that git ignores is missing there. Under
+    experiments/results/ git ignores only a sweep's derived NAME.csv / NAME.jsonl (made
+    by `make results` from the stored cells), so an ignored file there must name an
+    experiment; anything else a test or a report reads must be committed."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    if not (root / ".git").exists():
+        return  # an installed copy: nothing is ignored
+    ignored = subprocess.run(
+        [
+            "git",
+            "ls-files",
+            "--others",
+            "--ignored",
+            "--exclude-standard",
+            "--",
+            "experiments/results",
+        ],
+        cwd=root,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split()
+    names = {p.stem for p in (root / "experiments").rglob("*.toml")}
+    stray = [p for p in ignored if "/cells/" not in p and Path(p).stem not in names]
+    assert not stray, f"ignored by git but not derived from an experiment: {stray}"
+    probe = subprocess.run(
+        ["git", "check-ignore", "-q", "experiments/results/scripted.jsonl"], cwd=root
+    )
+    assert probe.returncode == 1, "experiments/results/scripted.jsonl must not be ignored"
