@@ -13,9 +13,7 @@ build resumes them; the library itself is written once, atomically, and never ov
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import json
 import sys
 import time
@@ -30,19 +28,14 @@ from tqdm.auto import tqdm
 
 from mjx_skills.config import SEED_LIMIT, DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
 from mjx_skills.core import compile_cache, plugins, rollout
-from mjx_skills.core.files import write_text_atomic
 from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.precision import use_float32
-from mjx_skills.envs.registry import SKILLS
 from mjx_skills.methods.ddpg_her import make_ddpg_her
-from mjx_skills.skills import fit, library
+from mjx_skills.skills import fit, library, registry
+from mjx_skills.skills.table import evaluate_models, write_table
 from mjx_skills.training.interrupt import INTERRUPTED
 from mjx_skills.training.metrics_log import logged_epochs
 from mjx_skills.training.runner import RunArgs, train_and_keep
-
-TABLE = Path("experiments") / "results" / "table_5_1.csv"
-THESIS_CM = {"transit": (1.9, 1.6), "grasp": (2.8, 1.2), "transfer": (4.6, 2.0)}
-"""Table 5.1 of the thesis: (memory retrieval, neural network) terminal-position error, cm."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,6 +51,28 @@ class SkillsArgs:
     """Directory of the skills' training runs (default: .OUT.work beside the library).
     Libraries built with the same one share their trained skills, e.g. the thesis preset's
     `--anchor start` library beside the default one."""
+    robot: str = "baxter"
+    """The robot whose skills are built (its registered skills, `skills.registry`)."""
+    skills: tuple[str, ...] = ()
+    """The skills to build, in order (default: every registered skill of --robot, yours
+    included when --import registers one)."""
+
+    def names(self) -> tuple[str, ...]:
+        """The skills this build trains; ValueError naming the valid ones."""
+        own = registry.skills_of(self.robot)
+        if not own:
+            raise ValueError(
+                f"--robot {self.robot}: no skill is registered for it; robots with skills: "
+                f"{', '.join(registry.robots_with_skills())}"
+            )
+        names = self.skills or own
+        wrong = [n for n in names if n not in own]
+        if wrong or len(set(names)) != len(names):
+            raise ValueError(
+                f"--skills {' '.join(names)}: each once, from the {self.robot} skills "
+                f"{', '.join(own)}"
+            )
+        return names
 
 
 def _latest_run(work: Path, name: str) -> Path | None:
@@ -67,12 +82,13 @@ def _latest_run(work: Path, name: str) -> Path | None:
 
 def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
     """DDPG+HER on the skill's env (resuming an interrupted run in `work`) -> (agent, run dir)."""
-    held = config.grasp_held_start_prob if name == "grasp" else 0.0
+    skill = registry.get(name)
+    held = config.grasp_held_start_prob if skill.held_training_starts else 0.0
     previous = _latest_run(work, name)
     args = RunArgs(
         train=TrainConfig(
             task=name,
-            epochs=getattr(config, f"{name}_epochs"),
+            epochs=getattr(config, f"{name}_epochs", skill.epochs),
             seed=config.seed,
             replay_capacity=200_000,
             out=str(work),
@@ -101,10 +117,13 @@ def skill_success(name: str, agent, episodes: int, seed: int) -> float:
     return float(jnp.mean(evaluate(agent, jax.random.PRNGKey(10_000 + seed))))
 
 
-def collect_skill(name: str, agent, config: LibraryConfig, progress: bool) -> dict[str, np.ndarray]:
-    """`config.samples` skill runs in chunks of `collect_envs` (one compiled program)."""
-    envs = library.skill_envs(SKILLS)
-    own = SKILLS.index(name)
+def collect_skill(
+    name: str, agent, config: LibraryConfig, progress: bool, names: tuple[str, ...]
+) -> dict[str, np.ndarray]:
+    """`config.samples` runs of skill `name` in chunks of `collect_envs` (one compiled
+    program), from its own starts and the other skills' of `names` (`own_start_share`)."""
+    envs = library.skill_envs(names)
+    own = names.index(name)
     chunk = min(config.collect_envs, config.samples)
     counts = fit.start_counts(chunk, own, len(envs), config.own_start_share)
     collect = jax.jit(fit.make_collect(envs[own], envs, counts, DDPGConfig()))
@@ -228,45 +247,6 @@ def _assemble(names, agents, dyn, clf, in_norm, d_norm, dims, x, s_T, success, n
     )
 
 
-def evaluate_models(lib: library.SkillLibrary, x, s_T, success) -> dict[str, dict[str, float]]:
-    """Held-out Table 5.1 figures per skill: terminal-position error (cm) of memory and model
-    on successful runs (grip for transit, cube otherwise), classifier accuracy and AUC."""
-    obs_dim = s_T.shape[-1]
-    out = {}
-    for k, (name, env) in enumerate(zip(lib.names, lib.envs, strict=True)):
-        obs, goal = jnp.asarray(x[k, :, :obs_dim]), jnp.asarray(x[k, :, obs_dim:])
-        ids = jnp.full((obs.shape[0],), k, jnp.int32)
-        pos = env.layout["object" if env.goal_is_object else "grip"]
-        ok = success[k].astype(bool)
-        model = np.asarray(jax.jit(lib.next_state)(ids, obs, goal))
-        memory = np.concatenate(
-            [
-                np.asarray(
-                    jax.jit(lib.recall)(ids[i : i + 512], obs[i : i + 512], goal[i : i + 512])
-                )
-                for i in range(0, obs.shape[0], 512)
-            ]
-        )
-        prob = np.asarray(jax.jit(lib.success_prob)(ids, obs, goal))
-        out[name] = {
-            "memory_error_cm": _position_error_cm(memory[ok], s_T[k][ok], pos),
-            "model_error_cm": _position_error_cm(model[ok], s_T[k][ok], pos),
-            # The trivial predictor: a successful run ends at its goal (within the threshold).
-            "goal_error_cm": float(
-                100 * np.mean(np.linalg.norm(np.asarray(goal)[ok] - s_T[k][ok][:, pos], axis=-1))
-            ),
-            "classifier_accuracy": float(np.mean((prob > 0.5) == ok)),
-            "classifier_auc": fit.auc(prob, ok),
-            "held_out": int(len(ok)),
-            "held_out_successes": int(ok.sum()),
-        }
-    return out
-
-
-def _position_error_cm(predicted: np.ndarray, actual: np.ndarray, pos: slice) -> float:
-    return float(100 * np.mean(np.linalg.norm(predicted[:, pos] - actual[:, pos], axis=-1)))
-
-
 def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
     """Every phase -> the library directory. `work`: where the skills' training runs live
     (default beside the library); libraries sharing it share their trained skills."""
@@ -281,8 +261,9 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
     made_by = library.provenance()  # the code as it was loaded, before a long build
     default_work = out.with_name(f".{out.name}.work")
     work = check_writable_path(default_work if work is None else work, "--work")
+    names = args.names()
     config, timings, success, agents, runs, data = args.config, {}, {}, [], {}, {}
-    for name in SKILLS:
+    for name in names:
         t0 = time.time()
         agent, runs[name] = train_skill(name, config, work, args.progress)
         success[name] = skill_success(name, agent, config.skill_eval_episodes, config.seed)
@@ -294,11 +275,11 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
             file=sys.stderr,
         )
     t0 = time.time()
-    for name, agent in zip(SKILLS, agents, strict=True):
-        data[name] = collect_skill(name, agent, config, args.progress)
+    for name, agent in zip(names, agents, strict=True):
+        data[name] = collect_skill(name, agent, config, args.progress, names)
     timings["collect_s"] = round(time.time() - t0, 1)
     t0 = time.time()
-    lib, metrics, history = fit_library(SKILLS, agents, data, config, args.progress)
+    lib, metrics, history = fit_library(names, agents, data, config, args.progress)
     timings["fit_s"] = round(time.time() - t0, 1)
     manifest = {
         "skill_success": success,
@@ -310,7 +291,7 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
             n: {
                 "total": int(len(d["success"])),
                 "successes": int(d["success"].sum()),
-                "success_by_start": _by_source(d),
+                "success_by_start": _by_source(d, names),
             }
             for n, d in data.items()
         },
@@ -320,54 +301,18 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
                 "memory_dims": list(e.memory_dims),
                 "param_dim": e.param_dim,
             }
-            for n, e in zip(SKILLS, lib.envs, strict=True)
+            for n, e in zip(names, lib.envs, strict=True)
         },
         "fit_history": history,
     }
     return library.save(lib, out, manifest, made_by)
 
 
-def _by_source(d: dict[str, np.ndarray]) -> dict[str, float]:
+def _by_source(d: dict[str, np.ndarray], names: tuple[str, ...]) -> dict[str, float]:
     return {
-        SKILLS[i] + "_start": float(d["success"][d["source"] == i].mean())
+        names[i] + "_start": float(d["success"][d["source"] == i].mean())
         for i in np.unique(d["source"])
     }
-
-
-def table_rows(directory: Path) -> list[dict]:
-    """Table 5.1 rows (one per skill) from a library's manifest, the thesis's beside ours."""
-    manifest = library.read_manifest(directory)
-    return [
-        {
-            "skill": name,
-            "memory_error_cm": f"{m['memory_error_cm']:.2f}",
-            "model_error_cm": f"{m['model_error_cm']:.2f}",
-            "goal_error_cm": f"{m['goal_error_cm']:.2f}" if "goal_error_cm" in m else "",
-            "thesis_memory_cm": THESIS_CM[name][0],
-            "thesis_model_cm": THESIS_CM[name][1],
-            "classifier_accuracy": f"{m['classifier_accuracy']:.3f}",
-            "classifier_auc": f"{m['classifier_auc']:.3f}",
-            "samples": manifest["samples"][name]["total"],
-            "anchor": manifest["library"].get("anchor", "start"),
-            "skill_success": f"{manifest['skill_success'][name]:.3f}",
-        }
-        for name, m in manifest["models"].items()
-    ]
-
-
-def write_table(directory: Path | list[Path], path: Path = TABLE) -> Path:
-    """Table 5.1 of one library (or several: one block of rows each) as CSV."""
-    rows = [
-        r
-        for d in ([directory] if isinstance(directory, Path) else directory)
-        for r in table_rows(d)
-    ]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    table = io.StringIO(newline="")
-    w = csv.DictWriter(table, fieldnames=list(rows[0]))
-    w.writeheader()
-    w.writerows(rows)
-    return write_text_atomic(path, table.getvalue())  # whole or not at all
 
 
 def main(argv: list[str] | None = None) -> None:

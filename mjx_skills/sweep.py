@@ -140,7 +140,7 @@ def run_sweep(
     else:
         run_dirs = run_cells_local(run_cell, cells, dirs, jobs, progress, store, pin)
     if exp.kind == "library":
-        from mjx_skills.build_library import write_table
+        from mjx_skills.skills.table import write_table
 
         return (write_table([Path(d) for d in run_dirs], csv_path),)
     rows, per_seed = aggregate(exp.name, cells, [Path(d) for d in run_dirs])

@@ -22,9 +22,9 @@ def table(header: list[str], rows: list[list[str]]) -> list[str]:
 
 def table5_1() -> list[str]:
     """Table 5.1 from the committed libraries' manifests (the default and the thesis's)."""
-    from mjx_skills.build_library import THESIS_CM
     from mjx_skills.methods import THESIS_LIBRARY
     from mjx_skills.skills.library import read_manifest
+    from mjx_skills.skills.table import THESIS_CM
 
     libs = [("default", Path("experiments/skill_library")), ("thesis preset", Path(THESIS_LIBRARY))]
     rows, found = [], []
@@ -199,7 +199,7 @@ def trivial_predictor(label: str, manifest: dict) -> list[str]:
     """The trivial baseline of Table 5.1: predict that a successful run ends at its goal
     ("goal cm", computed on the same held-out runs when the library is built), set against
     the thesis's memory errors and our model's."""
-    from mjx_skills.build_library import THESIS_CM
+    from mjx_skills.skills.table import THESIS_CM
 
     models = manifest["models"]
     if not all("goal_error_cm" in e for e in models.values()):

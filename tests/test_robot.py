@@ -14,9 +14,10 @@ import pytest
 from mjx_skills import methods
 from mjx_skills.config import DDPGConfig, LibraryConfig, SearchConfig, TrainConfig
 from mjx_skills.envs import ENVS, ROBOTS, make, robot_of, tasks_of
-from mjx_skills.envs.registry import SKILL_ROBOTS, SKILLS, check_robot
+from mjx_skills.envs.registry import check_robot
 from mjx_skills.envs.robot import Robot
 from mjx_skills.skills import library
+from mjx_skills.skills.registry import SKILLS, robots_with_skills
 from mjx_skills.training.runner import RunArgs, train_run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -29,7 +30,7 @@ def test_every_robot_has_a_sample_task_and_every_task_a_robot():
     assert set(SAMPLE_TASK) == set(ROBOTS)
     assert {robot_of(task) for task in ENVS} == set(ROBOTS)
     assert sorted(t for r in ROBOTS for t in tasks_of(r)) == sorted(ENVS)
-    assert all(robot_of(skill) in SKILL_ROBOTS for skill in SKILLS)
+    assert all(robot_of(skill) in robots_with_skills() for skill in SKILLS)
 
 
 @pytest.fixture(scope="module", params=sorted(SAMPLE_TASK))
@@ -142,7 +143,10 @@ def test_a_baxter_task_with_another_robots_library_is_refused_with_the_build_com
         train_run(args)
     said = str(refused.value)
     assert f"built for the Fetch robot ({lib})" in said and "pick_move is a Baxter task" in said
-    assert "`python -m mjx_skills.build_library --out DIR` and pass --search.library-dir" in said
+    assert (
+        "`python -m mjx_skills.build_library --robot baxter --out DIR` and pass --search.library-dir"
+        in said
+    )
     assert not out.exists()
 
 
@@ -164,7 +168,7 @@ def test_a_committed_manifest_without_robot_loads_as_baxter(directory):
 
 
 def test_a_saved_library_records_its_robot(tmp_path):
-    lib = library.empty_like(SKILLS, DDPGConfig(), LibraryConfig(), memory_size=2)
+    lib = library.empty_like(tuple(SKILLS), DDPGConfig(), LibraryConfig(), memory_size=2)
     path = library.save(lib, tmp_path / "lib", {"memory_size": 2})
     assert library.read_manifest(path)["robot"] == "baxter"
     assert library.library_robot({}) == "baxter"

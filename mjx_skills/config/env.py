@@ -12,7 +12,7 @@ Physics = Literal["auto", "native", "mjx"]
 PHYSICS = typing.get_args(Physics)  # the backends (`envs.physics.make_backend`), named once
 Library = Literal["SL1", "SL2", "SL3"]
 LIBRARIES = typing.get_args(Library)
-"""The thesis's skill libraries by name (their skills: `skills.library.LIBRARIES`)."""
+"""The thesis's skill libraries by name (their skills, and yours: `skills.registry.LIBRARIES`)."""
 
 
 @dataclasses.dataclass(frozen=True)

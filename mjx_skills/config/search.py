@@ -7,16 +7,16 @@ import dataclasses
 from typing import Literal
 
 from mjx_skills.config.checks import _check, check_numbers
-from mjx_skills.config.env import Library
 
 
 @dataclasses.dataclass(frozen=True)
 class SearchConfig:
     """DDPG+HER+SL: look-ahead search over the skill library as exploration (thesis ch. 5)."""
 
-    library: Library = "SL1"
+    library: str = "SL1"
     """Skills the search may use: SL1 = transit, grasp, transfer; SL2 = grasp, transfer;
-    SL3 = transit, transfer (thesis Fig. 6.4)."""
+    SL3 = transit, transfer (thesis Fig. 6.4); or a library of yours
+    (`skills.registry.register_library`)."""
     library_dir: str = "experiments/skill_library"
     """Where the built library is (`make skills`; the thesis preset's: ..._thesis)."""
     explorer: Literal["search", "scripted", "random"] = "search"
@@ -98,7 +98,7 @@ class PASConfig:
     """PAS / MPAS: a parameterized-action-space meta-controller over the skill library
     (thesis ch. 4). Its DDPG hyperparameters are the `--ddpg.*` group."""
 
-    library: Library = "SL1"
+    library: str = "SL1"
     """Skills the meta-controller chooses from (as for DDPG+HER+SL)."""
     library_dir: str = "experiments/skill_library"
     """Where the built library is (`make skills`; the thesis preset's: ..._thesis)."""

@@ -32,7 +32,6 @@ FETCH: dict[str, type[FetchTask]] = dict(FETCH_TASKS)
 ENVS: dict[str, type] = {**BAXTER, **FETCH}
 ROBOTS: dict[str, type] = {BaxterRobot.name: BaxterRobot, FetchRobot.name: FetchRobot}
 """Robot name -> its class, an `envs.robot.Robot` (each task declares one: `robot_name`)."""
-SKILLS = ("transit", "grasp", "transfer")
 TASKS = (
     "pick_move",
     "put_in_container",
@@ -43,10 +42,7 @@ TASKS = (
     "two_in_container",
 )
 
-
-SKILL_ROBOTS = {BAXTER["transit"].robot_name: SKILLS}
-"""Robot name -> its skill envs, for the robots a skill library can be built for
-(`python -m mjx_skills.build_library` trains these); a robot absent has none yet."""
+"""The Baxter tasks (the skills' envs are registered with their skills: `skills.registry`)."""
 
 
 def check_name(name: str) -> None:

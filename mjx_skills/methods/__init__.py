@@ -164,8 +164,9 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     command builds one yet. Reads only the manifest: nothing is loaded or written."""
     from mjx_skills.core.files import read_json
     from mjx_skills.core.paths import in_checkout
-    from mjx_skills.envs.registry import SKILL_ROBOTS, SKILLS, robot_of
+    from mjx_skills.envs.registry import robot_of
     from mjx_skills.skills.library import library_robot
+    from mjx_skills.skills.registry import SKILLS, robots_with_skills, skills_of
 
     spec = get(method)
     group = spec.library_group
@@ -174,23 +175,24 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     robot = robot_of(task)
     directory = in_checkout((options or {}).get(group, spec.options[group]).library_dir)
     manifest = directory / "manifest.json"
-    built_for = library_robot(read_json(manifest)) if manifest.exists() else robot_of(SKILLS[0])
+    default_robot = next(iter(SKILLS.values())).env.robot_name  # build_library's default
+    built_for = library_robot(read_json(manifest)) if manifest.exists() else default_robot
     if built_for == robot:
         return
     flag = f"--{group}.library-dir"
     built = "is built" if manifest.exists() else "would be built (none there yet)"
     said = f"the skill library {built} for the {built_for.capitalize()} robot ({directory})"
-    if robot in SKILL_ROBOTS:
+    if robot in robots_with_skills():
         raise ValueError(
             f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run with "
             f"it: build a {robot.capitalize()} library with `python -m mjx_skills.build_library "
-            f"--out DIR` and pass {flag} DIR"
+            f"--robot {robot} --out DIR` and pass {flag} DIR"
         )
     flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)
     raise ValueError(
         f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run: no "
         f"command builds a {robot.capitalize()} skill library yet (`python -m "
-        f"mjx_skills.build_library` trains the skill envs {', '.join(SKILLS)}, which are "
+        f"mjx_skills.build_library` trains the skill envs {', '.join(skills_of(built_for))}, which are "
         f"{built_for.capitalize()}'s; a {robot.capitalize()} library is future work, issue "
         f"#45): train {task} with {flat}"
     )

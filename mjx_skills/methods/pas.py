@@ -42,7 +42,12 @@ from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.skills import PARAM_DIM
 from mjx_skills.envs.two_objects import object_views
 from mjx_skills.skills import execution
-from mjx_skills.skills.library import SkillLibrary, allowed_skills, skill_envs
+from mjx_skills.skills.library import (
+    SkillLibrary,
+    allowed_skills,
+    carries_object,
+    skill_envs,
+)
 
 
 @struct.dataclass
@@ -161,13 +166,13 @@ def make_behaviour(
 
 
 def _stopped(lib: SkillLibrary, skill, obs, goal, drop_distance: float) -> jax.Array:
-    """A chosen skill stops at its goal; transfer also once the cube is `drop_distance` away
+    """A chosen skill stops at its goal; transfer (a skill that carries the object) also once the cube is `drop_distance` away
     from the gripper. (The library's `terminated` stops transfer as soon as the grasp
     predicate fails, which a carried cube swinging in the fingers trips for a step or two:
     meta steps of 1-3 steps that never carried the cube to the chosen goal.)"""
     dropped = jnp.linalg.norm(obs[..., lib.layout["rel"]], axis=-1) > drop_distance
-    is_transfer = jnp.array([name == "transfer" for name in lib.names])[skill]
-    return lib.reached(skill, obs, goal) | (is_transfer & dropped)
+    carries = carries_object(lib.names)[skill]
+    return lib.reached(skill, obs, goal) | (carries & dropped)
 
 
 def store(episodes: rollout.Episode, records: dict[str, jax.Array]) -> MetaEpisode:

@@ -26,7 +26,6 @@ import orbax.checkpoint as ocp
 from flax import struct
 
 from mjx_skills.agents import ddpg
-from mjx_skills.config import LIBRARIES as LIBRARY_NAMES
 from mjx_skills.config import DDPGConfig, LibraryConfig
 from mjx_skills.core.config_io import from_dict
 from mjx_skills.core.files import read_json, tree_sha256, write_json_atomic
@@ -34,7 +33,7 @@ from mjx_skills.core.grouped import apply_per_row, select
 from mjx_skills.core.nets import CoarseDynamics, SuccessClassifier
 from mjx_skills.core.paths import check_writable_path, in_checkout
 from mjx_skills.core.types import ObsLayout, SkillEnv
-from mjx_skills.envs.registry import SKILLS, make
+from mjx_skills.envs.registry import make
 from mjx_skills.skills.provenance import (
     check_definition,
     check_digest,
@@ -44,16 +43,10 @@ from mjx_skills.skills.provenance import (
 )
 from mjx_skills.skills.provenance import scene_files as scene_files  # re-exported
 from mjx_skills.skills.provenance import scenes_digest as scenes_digest  # re-exported
+from mjx_skills.skills.registry import LIBRARIES as LIBRARIES  # re-exported
+from mjx_skills.skills.registry import get as get_skill
+from mjx_skills.skills.registry import library_skills as library_skills  # re-exported
 
-LIBRARIES = dict(
-    zip(
-        LIBRARY_NAMES,
-        (("transit", "grasp", "transfer"), ("grasp", "transfer"), ("transit", "transfer")),
-        strict=True,
-    )
-)
-"""The thesis's libraries (Fig. 6.4) by their names (`config.LIBRARIES`, defined there once):
-the full one, SL1, and two reduced ones."""
 FORMAT = 1
 """Version of the on-disk layout; a library of another format is refused."""
 UNRECORDED_ROBOT = "baxter"
@@ -61,12 +54,6 @@ UNRECORDED_ROBOT = "baxter"
 when Baxter was the only robot with skills (`library_robot`)."""
 DEFAULT_DIR = Path("experiments") / "skill_library"
 log = logging.getLogger(__name__)
-
-
-def library_skills(name: str) -> tuple[str, ...]:
-    if name not in LIBRARIES:
-        raise ValueError(f"unknown library {name!r}; valid: {', '.join(LIBRARIES)}")
-    return LIBRARIES[name]
 
 
 @struct.dataclass
@@ -209,22 +196,32 @@ class SkillLibrary:
         return select(at, skill)
 
     def allowed(self, obs: jax.Array, grasp_reach: float = 0.0) -> jax.Array:
-        """(..., K) bool: the skills that may start here. Transfer needs the cube in hand;
-        transit and grasp need an empty gripper (the skills' start conditions); with
-        `grasp_reach` > 0 (m) grasp also needs the gripper that near the cube
-        (`SearchConfig.grasp_reach`)."""
+        """(..., K) bool: the skills that may start here, by their start conditions
+        (`registry.Skill.start`: transfer needs the cube in hand, transit and grasp an empty
+        gripper); with `grasp_reach` > 0 (m) the skills that start near the object (grasp)
+        also need the gripper that near it (`SearchConfig.grasp_reach`)."""
         allowed = allowed_skills(self.names, self.envs[0].grasped(obs))
-        if grasp_reach <= 0 or "grasp" not in self.names:
+        gated = [k for k, name in enumerate(self.names) if get_skill(name).near_object]
+        if grasp_reach <= 0 or not gated:
             return allowed
         near = jnp.linalg.norm(obs[..., self.layout["rel"]], axis=-1) <= grasp_reach
-        k = self.names.index("grasp")
-        return allowed.at[..., k].set(allowed[..., k] & near)
+        for k in gated:
+            allowed = allowed.at[..., k].set(allowed[..., k] & near)
+        return allowed
 
 
 def allowed_skills(names: tuple[str, ...], held: jax.Array) -> jax.Array:
-    """held (...,) bool -> (..., K) bool: transfer with the cube in hand, else the others."""
-    is_transfer = jnp.array([name == "transfer" for name in names])
-    return jnp.where(held[..., None], is_transfer, ~is_transfer)
+    """held (...,) bool -> (..., K) bool: each skill's start condition (`Skill.start`): the
+    'held' skills with the cube in hand, the 'empty' ones without, the 'any' ones always."""
+    start = [get_skill(name).start for name in names]
+    if_held = jnp.array([s in ("held", "any") for s in start])
+    if_empty = jnp.array([s in ("empty", "any") for s in start])
+    return jnp.where(held[..., None], if_held, if_empty)
+
+
+def carries_object(names: tuple[str, ...]) -> jax.Array:
+    """(K,) bool: the skills that start with the object in hand (`Skill.start` 'held')."""
+    return jnp.array([get_skill(name).start == "held" for name in names])
 
 
 def anchor_point(layout: ObsLayout, anchor: str, obs: jax.Array, goal: jax.Array) -> jax.Array:
@@ -249,8 +246,7 @@ _ENV_CACHE: dict[str, SkillEnv] = {}
 
 
 def _skill_env(name: str) -> SkillEnv:
-    if name not in SKILLS:
-        raise ValueError(f"unknown skill {name!r}; valid: {', '.join(SKILLS)}")
+    get_skill(name)  # ValueError naming the registered skills
     if name not in _ENV_CACHE:
         # Possibly first asked for inside a jitted function: build the env's constants eagerly.
         with jax.ensure_compile_time_eval():

@@ -1,9 +1,10 @@
 """Look-ahead search over the skill library (thesis ch. 5): a fixed-shape tree per env.
 
 From the current state, every node samples `branching` (skill, goal) pairs: transfer only
-when the cube is held, else transit or grasp (restricted to the library in use); transit
-goals just above the object, grasp goals its lift height, transfer goals near the task
-goal. Each edge is scored in one batched call per level for all envs and nodes at once:
+when the cube is held, else transit or grasp (restricted to the library in use; each
+skill's start condition and goal proposer come from its definition, `skills.registry`):
+transit goals just above the object, grasp goals its lift height, transfer goals near the
+task goal. Each edge is scored in one batched call per level for all envs and nodes at once:
 the classifier's success probability (edges at or below `prune_below` are pruned), the
 skill's critic value Q^i(s, g, pi^i(s, g)), and the next state from the coarse model (or
 memory; on the last level optionally the skill's goal itself, `leaf_state`). A path's
@@ -29,7 +30,7 @@ from flax import struct
 from mjx_skills.config import SearchConfig
 from mjx_skills.core import rollout
 from mjx_skills.core.types import GoalEnv
-from mjx_skills.skills import stalls
+from mjx_skills.skills import registry, stalls
 from mjx_skills.skills.library import SkillLibrary
 
 
@@ -57,32 +58,12 @@ def sample_edges(
     skill = jnp.argmax(jnp.where(allowed[:, None], scores, -1.0), axis=-1).astype(jnp.int32)
     ok = jnp.take_along_axis(allowed, skill, axis=1)
 
-    obj = obs[:, None, lib.layout["object"]]
-    lo, hi = cfg.transit_height
-    height = lo + (hi - lo) * height
-    candidates = {
-        "transit": obj
-        + jnp.concatenate([cfg.object_goal_noise * noise[..., :2], height[..., None]], axis=-1),
-        "transfer": task_goal[:, None] + cfg.transfer_goal_noise * noise,
-    }
-    if "transfer" in names and cfg.waypoint_share > 0:
-        low, high = lib.envs[names.index("transfer")].object_goal_box()
-        anywhere = jnp.asarray(low) + (jnp.asarray(high) - jnp.asarray(low)) * where
-        candidates["transfer"] = jnp.where(
-            way < cfg.waypoint_share, anywhere, candidates["transfer"]
-        )
-    if "grasp" in names:
-        grasp = lib.envs[names.index("grasp")]
-        candidates["grasp"] = grasp.goal_from_param(
-            lift, jnp.broadcast_to(obs[:, None], (*lift.shape[:2], obs.shape[-1]))
-        )
-    goals = jnp.stack([candidates[name] for name in names])  # (K, N, b, 3)
+    edges = registry.Edges(obs, task_goal, noise, height, lift, way, where)
+    proposers = [registry.get(name).propose for name in names]
+    goals = jnp.stack(
+        [propose(env, cfg, edges) for propose, env in zip(proposers, lib.envs, strict=True)]
+    )  # (K, N, b, 3)
     goal = jnp.take_along_axis(goals, skill[None, ..., None], axis=0)[0]
-    if "transfer" in names:
-        low, high = lib.envs[names.index("transfer")].object_goal_box()
-        goal = jnp.where(
-            (skill == names.index("transfer"))[..., None], jnp.clip(goal, low, high), goal
-        )
     return skill, goal, ok
 
 

@@ -17,8 +17,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-MOVING_SKILLS = ("transit", "transfer")
-"""Skills that travel in a straight line to their goal; grasp only closes and lifts."""
+from mjx_skills.skills import registry
+
 EMPTY = 1e3
 """Coordinate of an empty memory slot: far from every segment."""
 
@@ -29,8 +29,9 @@ def empty(n: int, size: int) -> jax.Array:
 
 
 def moving(names: tuple[str, ...], skill: jax.Array) -> jax.Array:
-    """skill (...) int32 -> (...) bool: the skill travels to its goal."""
-    return jnp.array([name in MOVING_SKILLS for name in names])[skill]
+    """skill (...) int32 -> (...) bool: the skill travels in a straight line to its goal
+    (`registry.Skill.moves`: transit and transfer; grasp only closes and lifts)."""
+    return jnp.array([registry.get(name).moves for name in names])[skill]
 
 
 def segment_distance(points: jax.Array, start: jax.Array, end: jax.Array) -> jax.Array:

@@ -1,0 +1,212 @@
+"""Every skill the library can hold, by name: one `Skill` definition each (its env, when it may
+start, whether it travels to its goal, how the search proposes its goals), and the libraries
+(named sets of skills) the methods read.
+
+The library (`skills.library`), the look-ahead search (`skills.lookahead`), PAS / MPAS
+(`methods.pas`), the stall memory (`skills.stalls`) and `build_library` read the skills
+from here, never from names in their code, so a skill of your own is one definition:
+
+    from mjx_skills.skills.registry import Skill, register_library, register_skill
+
+    register_skill(Skill(name="push", env=Push, start="empty", moves=True, propose=...))
+    register_library("SL_push", ("transit", "grasp", "transfer", "push"))
+
+in a module passed to the commands with `--import` (docs/extending.md, "Adding a skill";
+examples/push_skill/).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Literal, NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from mjx_skills.config import LIBRARIES as THESIS_LIBRARIES
+from mjx_skills.config import SearchConfig
+from mjx_skills.envs import registry as envs
+
+Start = Literal["empty", "held", "any"]
+STARTS: tuple[str, ...] = ("empty", "held", "any")
+
+
+class Edges(NamedTuple):
+    """What a skill's goal proposer sees: N search states, b edges each, and each edge's
+    random draws (shared by every skill, so a proposer adds no randomness of its own)."""
+
+    obs: jax.Array
+    """(N, obs_dim) the states the edges start from."""
+    task_goal: jax.Array
+    """(N, 3) the task's goal."""
+    noise: jax.Array
+    """(N, b, 3) uniform in [-1, 1]."""
+    height: jax.Array
+    """(N, b) uniform in [0, 1]."""
+    lift: jax.Array
+    """(N, b, 1) uniform in [-1, 1]."""
+    way: jax.Array
+    """(N, b, 1) uniform in [0, 1] (the waypoint coin)."""
+    where: jax.Array
+    """(N, b, 3) uniform in [0, 1] (a position share of a box)."""
+
+
+Proposer = Callable[..., jax.Array]
+"""propose(env, cfg: SearchConfig, edges: Edges) -> goals (N, b, 3), `env` the skill's env."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Skill:
+    """One skill of the library. ValueError from `register_skill` for a bad field."""
+
+    name: str
+    """A Python identifier; also the name of its env in `envs.registry` (`--task NAME`
+    trains the skill alone)."""
+    env: type
+    """Its skill env: an `envs.baxter.BaxterEnv` subclass declaring `param_dim` (<= 3),
+    `goal_from_param`, `terminated`, `state_dims` and `memory_dims` (envs/skills.py)."""
+    propose: Proposer
+    """The search's candidate goals for it (`Proposer`)."""
+    start: Start = "empty"
+    """When it may start: with an empty gripper, with the object in hand ('held': it also
+    stops once the object leaves the gripper, `methods.pas`), or 'any'."""
+    moves: bool = False
+    """It travels in a straight line to its goal (the stall memory prunes such edges
+    through remembered obstacles, `skills.stalls`)."""
+    near_object: bool = False
+    """It may start only within `--search.grasp-reach` of the object (when that is > 0)."""
+    held_training_starts: bool = False
+    """`build_library` trains it with `LibraryConfig.grasp_held_start_prob` of its episodes
+    starting with the object held (the thesis's grasp)."""
+    epochs: int = 100
+    """DDPG+HER epochs `build_library` trains it for, unless `LibraryConfig` has a field
+    `<name>_epochs` (the thesis's three skills)."""
+    thesis_cm: tuple[float, float] | None = None
+    """Table 5.1 of the thesis, (memory, neural network) terminal error in cm, if it has one."""
+
+
+def _above_object(env, cfg: SearchConfig, e: Edges) -> jax.Array:
+    """Transit: just above the object, xy within `object_goal_noise`, z in `transit_height`."""
+    obj = e.obs[:, None, env.layout["object"]]
+    lo, hi = cfg.transit_height
+    height = lo + (hi - lo) * e.height
+    return obj + jnp.concatenate([cfg.object_goal_noise * e.noise[..., :2], height[..., None]], -1)
+
+
+def _lift(env, cfg: SearchConfig, e: Edges) -> jax.Array:
+    """Grasp: its lift height (the lift draw through the env's goal parameters)."""
+    obs = jnp.broadcast_to(e.obs[:, None], (*e.lift.shape[:2], e.obs.shape[-1]))
+    return env.goal_from_param(e.lift, obs)
+
+
+def _near_task_goal(env, cfg: SearchConfig, e: Edges) -> jax.Array:
+    """Transfer: near the task goal, or (`waypoint_share`) a waypoint anywhere in the
+    object's goal box; clipped into that box."""
+    goal = e.task_goal[:, None] + cfg.transfer_goal_noise * e.noise
+    low, high = env.object_goal_box()
+    if cfg.waypoint_share > 0:
+        anywhere = jnp.asarray(low) + (jnp.asarray(high) - jnp.asarray(low)) * e.where
+        goal = jnp.where(e.way < cfg.waypoint_share, anywhere, goal)
+    return jnp.clip(goal, low, high)
+
+
+_BUILT_IN = (
+    Skill("transit", envs.ENVS["transit"], _above_object, moves=True, thesis_cm=(1.9, 1.6)),
+    Skill(
+        "grasp",
+        envs.ENVS["grasp"],
+        _lift,
+        near_object=True,
+        held_training_starts=True,
+        thesis_cm=(2.8, 1.2),
+    ),
+    Skill(
+        "transfer",
+        envs.ENVS["transfer"],
+        _near_task_goal,
+        start="held",
+        moves=True,
+        thesis_cm=(4.6, 2.0),
+    ),
+)
+SKILLS: dict[str, Skill] = {skill.name: skill for skill in _BUILT_IN}
+"""Skill name -> its definition, in the order `build_library` builds them."""
+LIBRARIES: dict[str, tuple[str, ...]] = dict(
+    zip(
+        THESIS_LIBRARIES,
+        (("transit", "grasp", "transfer"), ("grasp", "transfer"), ("transit", "transfer")),
+        strict=True,
+    )
+)
+"""Library name -> its skills: the thesis's (Fig. 6.4; SL1 the full one) and yours
+(`register_library`)."""
+
+
+def get(name: str) -> Skill:
+    """The skill `name`; ValueError naming the registered ones."""
+    if name not in SKILLS:
+        raise ValueError(
+            f"unknown skill {name!r}; valid: {', '.join(SKILLS)} (a skill of your own: pass "
+            "the module that registers it with --import MODULE)"
+        )
+    return SKILLS[name]
+
+
+def skills_of(robot: str) -> tuple[str, ...]:
+    """The registered skills of robot `robot`, in registration order (may be empty)."""
+    envs.check_robot(robot)
+    return tuple(n for n, s in SKILLS.items() if s.env.robot_name == robot)
+
+
+def robots_with_skills() -> tuple[str, ...]:
+    """The robots a skill library can be built for: those with a registered skill."""
+    return tuple(dict.fromkeys(s.env.robot_name for s in SKILLS.values()))
+
+
+def library_skills(name: str) -> tuple[str, ...]:
+    """The skills of library `name`; ValueError naming the valid libraries and the options
+    that take one."""
+    if name not in LIBRARIES:
+        raise ValueError(
+            f"unknown library {name!r} (--search.library / --pas.library); valid: "
+            f"{', '.join(LIBRARIES)} (one of your own: `register_library`)"
+        )
+    return LIBRARIES[name]
+
+
+def register_skill(skill: Skill) -> None:
+    """Add `skill` to the registry, and its env to `envs.registry` under the skill's name.
+    ValueError, naming the field, for a name already taken or not an identifier, a `start`
+    not in STARTS, an env of no registered robot or without what the library reads, or a
+    proposer that is not callable."""
+    name = skill.name
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"skill name {name!r}: letters, digits and _ (a Python identifier)")
+    if name in SKILLS or name in envs.ENVS:
+        raise ValueError(f"skill {name!r}: the name is registered already; choose another")
+    if skill.start not in STARTS:
+        raise ValueError(f"skill {name!r}: start {skill.start!r}; valid: {', '.join(STARTS)}")
+    if not callable(skill.propose):
+        raise ValueError(f"skill {name!r}: propose must be callable (env, cfg, edges) -> goals")
+    needs = ("param_dim", "goal_from_param", "terminated", "state_dims", "memory_dims")
+    missing = [a for a in needs if not hasattr(skill.env, a)]
+    if missing:
+        raise ValueError(f"skill {name!r}: its env {skill.env!r} lacks {', '.join(missing)}")
+    if not 1 <= skill.env.param_dim <= 3:
+        raise ValueError(f"skill {name!r}: param_dim {skill.env.param_dim}; valid: 1 to 3")
+    envs.register_task(name, skill.env)
+    SKILLS[name] = skill
+
+
+def register_library(name: str, skills: tuple[str, ...]) -> None:
+    """Name a set of registered skills a library (`--search.library NAME`). ValueError for a
+    name already taken, an unknown skill, a repeated one or an empty set."""
+    if not isinstance(name, str) or not name.isidentifier() or name in LIBRARIES:
+        raise ValueError(f"library {name!r}: taken or not an identifier; taken: {list(LIBRARIES)}")
+    skills = tuple(skills)
+    for skill in skills:
+        get(skill)
+    if not skills or len(set(skills)) != len(skills):
+        raise ValueError(f"library {name!r}: {skills} must name each skill once, at least one")
+    LIBRARIES[name] = skills

@@ -1,0 +1,135 @@
+"""A skill registered from the user's own module (`skills.registry.register_skill`,
+examples/push_skill/): the library, the search, PAS's stop rule, the stall memory and
+build_library read it from its definition; bad registrations are named."""
+
+import dataclasses
+import runpy
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjx_skills import build_library
+from mjx_skills.config import DDPGConfig, LibraryConfig, SearchConfig
+from mjx_skills.envs import registry as envs
+from mjx_skills.envs.baxter import OBS_OBJECT
+from mjx_skills.skills import library, lookahead, registry, stalls, table
+
+ROOT = Path(__file__).resolve().parents[1]
+PUSH = ROOT / "examples" / "push_skill" / "push.py"
+FOUR = ("transit", "grasp", "transfer", "push")
+
+
+@pytest.fixture
+def push(monkeypatch):
+    """The example registered into copies of the registries (undone after the test)."""
+    monkeypatch.setattr(registry, "SKILLS", dict(registry.SKILLS))
+    monkeypatch.setattr(registry, "LIBRARIES", dict(registry.LIBRARIES))
+    monkeypatch.setattr(envs, "ENVS", dict(envs.ENVS))
+    return runpy.run_path(str(PUSH))
+
+
+def test_bad_registrations_are_named(push):
+    Push, propose = push["Push"], push["propose_push"]
+    skill = registry.Skill(name="shove", env=Push, propose=propose)
+    with pytest.raises(ValueError, match="'push': the name is registered already"):
+        registry.register_skill(dataclasses.replace(skill, name="push"))
+    with pytest.raises(ValueError, match="start 'sometimes'; valid: empty, held, any"):
+        registry.register_skill(dataclasses.replace(skill, start="sometimes"))
+    with pytest.raises(ValueError, match="lacks goal_from_param, terminated"):
+        bare = type("Bare", (), {"param_dim": 2, "state_dims": (), "memory_dims": ()})
+        registry.register_skill(dataclasses.replace(skill, env=bare))
+    with pytest.raises(ValueError, match="param_dim 4; valid: 1 to 3"):
+        registry.register_skill(
+            dataclasses.replace(skill, env=type("W", (Push,), {"param_dim": 4}))
+        )
+    with pytest.raises(ValueError, match="propose must be callable"):
+        registry.register_skill(dataclasses.replace(skill, propose=None))
+    with pytest.raises(
+        ValueError, match="unknown skill 'pull'; valid: transit, grasp, transfer, push"
+    ):
+        registry.register_library("SL_pull", ("transit", "pull"))
+    with pytest.raises(ValueError, match="each skill once"):
+        registry.register_library("SL_twice", ("push", "push"))
+    with pytest.raises(ValueError, match="taken"):
+        registry.register_library("SL1", ("push",))
+    with pytest.raises(ValueError, match=r"unknown library 'SL9' \(--search.library"):
+        registry.library_skills("SL9")
+    assert "shove" not in registry.SKILLS and "shove" not in envs.ENVS  # nothing half-registered
+    assert registry.library_skills("SL_push") == FOUR
+    assert registry.skills_of("baxter") == FOUR and registry.skills_of("fetch") == ()
+
+
+def test_build_library_names_the_skills_it_can_build(push):
+    assert build_library.SkillsArgs().names() == FOUR
+    assert build_library.SkillsArgs(skills=("push", "grasp")).names() == ("push", "grasp")
+    with pytest.raises(ValueError, match="from the baxter skills transit, grasp, transfer, push"):
+        build_library.SkillsArgs(skills=("push", "fly")).names()
+    with pytest.raises(ValueError, match="--robot fetch: no skill is registered for it"):
+        build_library.SkillsArgs(robot="fetch").names()
+
+
+def _states(n: int) -> tuple[jax.Array, jax.Array]:
+    """n pick_move starts (empty gripper) and their goals."""
+    env = envs.make("pick_move", physics="native")
+    s = jax.vmap(env.reset)(jax.random.split(jax.random.PRNGKey(0), n))
+    return s.obs, s.desired_goal
+
+
+def test_the_search_proposes_push_goals_on_the_table_towards_the_task_goal(push):
+    lib = library.empty_like(FOUR, DDPGConfig(), LibraryConfig(), memory_size=2)
+    cfg = SearchConfig(branching=64, height=1, object_goal_noise=0.01)
+    obs, goal = _states(8)
+    draws = lookahead.level_draws(
+        lookahead.draw_edges(lookahead.env_keys(jax.random.PRNGKey(1), 8), cfg, 4), 0, 64
+    )
+    skill, goals, ok = lookahead.sample_edges(lib, cfg, obs, goal, draws)
+    skill, goals = np.asarray(skill), np.asarray(goals)
+    pushes = skill == FOUR.index("push")
+    assert np.asarray(ok).all() and {0, 1, 3} == set(np.unique(skill))  # empty grip: no transfer
+    obj = np.asarray(obs)[:, None, OBS_OBJECT].repeat(64, 1)[pushes]
+    step = goals[pushes] - obj
+    toward = (np.asarray(goal)[:, None].repeat(64, 1)[pushes] - obj)[:, :2]
+    np.testing.assert_allclose(step[:, 2], 0.0, atol=1e-6)  # along the table
+    assert (np.linalg.norm(step[:, :2], axis=-1) <= push["REACH"] + 0.015).all()
+    assert (np.sum(step[:, :2] * toward, -1) > 0).mean() > 0.9  # towards the task goal
+    allowed = np.asarray(library.allowed_skills(FOUR, jnp.array([False, True])))
+    assert allowed.tolist() == [[True, True, False, True], [False, False, True, False]]
+    assert list(np.asarray(stalls.moving(FOUR, jnp.arange(4)))) == [True, False, True, True]
+    assert list(np.asarray(library.carries_object(FOUR))) == [False, False, True, False]
+
+
+def test_a_library_with_the_push_skill_is_built_loaded_and_searched(push, tmp_path, monkeypatch):
+    """build_library --skills push (1 epoch, 100 runs): trained, collected and fitted as the
+    thesis's skills are; the loaded library serves the search; no thesis figure for push."""
+    monkeypatch.setitem(
+        registry.SKILLS, "push", dataclasses.replace(registry.SKILLS["push"], epochs=1)
+    )
+    tiny = LibraryConfig(samples=100, collect_envs=100, fit_epochs=2, skill_eval_episodes=4)
+    args = build_library.SkillsArgs(
+        config=tiny, skills=("push",), out=str(tmp_path / "lib"), progress=False
+    )
+    out = build_library.build(args)
+    manifest = library.read_manifest(out)
+    assert list(manifest["models"]) == ["push"] and manifest["samples"]["push"]["total"] == 100
+    assert manifest["dims"]["push"]["param_dim"] == 2
+    lib, _ = library.load(out)
+    assert lib.names == ("push",)
+    registry.register_library("push_only", ("push",))
+    obs, goal = _states(4)
+    found = lookahead.search(
+        library.subset(lib, "push_only"),
+        SearchConfig(),
+        envs.make("pick_move"),
+        obs,
+        goal,
+        jax.random.PRNGKey(0),
+    )
+    assert (
+        np.asarray(found.skill).tolist() == [0, 0, 0, 0]
+        and np.isfinite(np.asarray(found.goal)).all()
+    )
+    (row,) = table.table_rows(out)
+    assert row["skill"] == "push" and row["thesis_memory_cm"] == "" and row["thesis_model_cm"] == ""
