@@ -245,6 +245,33 @@ def test_a_variant_states_only_what_it_changes(tmp_path, monkeypatch):
         load_experiment("orphan")
 
 
+def test_a_variant_drops_inherited_keys_with_unset(tmp_path, monkeypatch):
+    """`unset`: dotted keys of the parent dropped before the variant's own are merged (the
+    method's default comes back); a key the parent lacks, or unset without extends, named."""
+    from mjx_skills.sweeps import experiment_file
+
+    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
+    (tmp_path / "base.toml").write_text(
+        'description = "b"\ngroup = "beyond"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
+        "seeds = 2\n[train]\nenvs = 2\ncycles = 3\n[options.ddpg_her.ddpg]\ntau = 0.1\n"
+    )
+    head = 'extends = "base"\ndescription = "c"\ngroup = "ablation"\n'
+    (tmp_path / "child.toml").write_text(
+        head + 'unset = ["seeds", "train.cycles", "options.ddpg_her.ddpg.tau"]\n'
+    )
+    child, base = load_experiment("child"), load_experiment("base")
+    assert child.train == {"envs": 2} and child.options == {} and base.options != {}
+    assert child.seeds != 2 and base.seeds == 2
+    (tmp_path / "again.toml").write_text(head + 'unset = ["train.envs"]\n[train]\nenvs = 4\n')
+    assert load_experiment("again").train == {"envs": 4, "cycles": 3}
+    (tmp_path / "typo.toml").write_text(head + 'unset = ["train.env"]\n')
+    with pytest.raises(ValueError, match="unset 'train.env': the file it extends has no such key"):
+        load_experiment("typo")
+    (tmp_path / "alone.toml").write_text('description = "a"\ngroup = "beyond"\nunset = ["seeds"]\n')
+    with pytest.raises(ValueError, match="unset drops inherited keys, so it needs extends"):
+        load_experiment("alone")
+
+
 def test_a_variant_names_its_own_cells_and_says_what_it_is(tmp_path, monkeypatch):
     """A variant never takes its parent's label (its cells would take the parent's names);
     a file without a description, or whose baseline is itself, is refused by name."""

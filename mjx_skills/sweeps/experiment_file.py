@@ -5,7 +5,10 @@ A variant states only what it changes: `extends = "PARENT"` takes PARENT's keys 
 `extends` first), the variant's keys override them, and its tables (`[train]`, `[env]`,
 `[library]`, `[options.METHOD.GROUP]`) are merged key by key. What an experiment is
 (`description`, `group`), its cells' `label` (a variant's cells must not take its parent's
-names) and a headline's `baseline` and `target` are never inherited.
+names) and a headline's `baseline` and `target` are never inherited. `unset = ["KEY",
+"TABLE.KEY", ...]` drops inherited keys (dotted paths into the parent's merged keys) before
+the variant's own are merged, e.g. `unset = ["options.ddpg_her.ddpg.tau"]` to take the
+method's default again.
 
     extends = "fast"
     description = "DDPG+HER+SL+Fast's second default on container_wall"
@@ -62,7 +65,10 @@ def raw(name: str, chain: tuple[str, ...] = ()) -> dict[str, Any]:
     except tomllib.TOMLDecodeError as err:
         raise ValueError(f"{path} is not valid TOML: {err}") from None
     parent = own.pop("extends", None)
+    unset = own.pop("unset", [])
     if parent is None:
+        if unset:
+            raise ValueError(f"{path}: unset drops inherited keys, so it needs extends")
         return own
     if not isinstance(parent, str) or not parent.replace("_", "").isalnum():
         raise ValueError(f"{path}: extends must name an experiment file, got {parent!r}")
@@ -70,7 +76,35 @@ def raw(name: str, chain: tuple[str, ...] = ()) -> dict[str, Any]:
         raise ValueError(f"{path}: extends loops: {' -> '.join((*chain, name, parent))}")
     base = raw(parent, (*chain, name))
     base = {k: v for k, v in base.items() if k not in NOT_INHERITED}
-    return merged(base, own)
+    return merged(dropped(base, unset, path), own)
+
+
+def dropped(base: dict[str, Any], unset: Any, path: Path) -> dict[str, Any]:
+    """`base` without the dotted keys `unset` names (a new dict; emptied tables removed).
+    ValueError naming the file for a key `base` does not have."""
+    if not isinstance(unset, list) or not all(isinstance(k, str) and k for k in unset):
+        raise ValueError(f'{path}: unset must be a list of dotted keys, e.g. ["train.envs"]')
+    out = merged({}, base)  # a copy of every table
+    for dotted in unset:
+        *tables, key = dotted.split(".")
+        table = out
+        for name in tables:
+            table = table.get(name) if isinstance(table, dict) else None
+        if not isinstance(table, dict) or key not in table:
+            raise ValueError(f"{path}: unset {dotted!r}: the file it extends has no such key")
+        del table[key]
+    return _without_empty(out)
+
+
+def _without_empty(table: dict[str, Any]) -> dict[str, Any]:
+    out = {}
+    for key, value in table.items():
+        if isinstance(value, dict):
+            value = _without_empty(value)
+            if not value:
+                continue
+        out[key] = value
+    return out
 
 
 def read(name: str, known: set[str]) -> dict[str, Any]:
