@@ -199,9 +199,10 @@ def test_every_command_has_an_installed_script():
 
 def test_git_ignores_only_results_that_an_experiment_derives():
     """CI runs on a fresh clone: a file that git ignores is missing there. Under
-    experiments/results/ git ignores only a sweep's derived NAME.csv / NAME.jsonl (made
-    by `make results` from the stored cells), so an ignored file there must name an
-    experiment; anything else a test or a report reads must be committed."""
+    experiments/results/ git ignores only a training sweep's derived NAME.csv / NAME.jsonl
+    (made by `make results` from the stored cells), so an ignored file there must name a
+    training experiment; anything else a test or a report reads (a library sweep's table,
+    whose libraries are not stored) must be committed."""
     import subprocess
 
     root = Path(__file__).resolve().parents[1]
@@ -222,10 +223,15 @@ def test_git_ignores_only_results_that_an_experiment_derives():
         text=True,
         check=True,
     ).stdout.split()
-    names = {p.stem for p in (root / "experiments").rglob("*.toml")}
-    stray = [p for p in ignored if "/cells/" not in p and Path(p).stem not in names]
+    from mjx_skills.sweeps import experiment_file
+
+    trained = {
+        n for n in experiment_file.names() if experiment_file.raw(n).get("kind") != "library"
+    }
+    stray = [p for p in ignored if "/cells/" not in p and Path(p).stem not in trained]
     assert not stray, f"ignored by git but not derived from an experiment: {stray}"
-    probe = subprocess.run(
-        ["git", "check-ignore", "-q", "experiments/results/scripted.jsonl"], cwd=root
-    )
-    assert probe.returncode == 1, "experiments/results/scripted.jsonl must not be ignored"
+    for kept in ("scripted.jsonl", "table5_1.csv", "table5_1_thesis.csv"):
+        probe = subprocess.run(
+            ["git", "check-ignore", "-q", f"experiments/results/{kept}"], cwd=root
+        )
+        assert probe.returncode == 1, f"experiments/results/{kept} must not be ignored"

@@ -437,6 +437,20 @@ def test_the_list_groups_every_experiment_by_what_it_is_for(capsys):
     assert under["headline_fast"][0] == "beyond" and under["smoke"][0] == "diagnostic"
 
 
+def test_the_list_counts_a_library_sweep_stored_when_its_table_holds_the_rows(tmp_path):
+    """A library sweep's libraries are not stored, their Table 5.1 rows are: each sample
+    count with rows in the committed NAME.csv counts as stored."""
+    from mjx_skills.sweeps.listing import cost_text
+
+    exp = load_experiment("table5_1")  # samples 10k and 30k
+    store = tmp_path / "cells"
+    assert cost_text(exp, 1, store) == (0, "-")
+    (tmp_path / "table5_1.csv").write_text("skill,samples\ntransit,10000\ngrasp,10000\n")
+    assert cost_text(exp, 1, store) == (1, "-")
+    (tmp_path / "table5_1.csv").write_text("skill,samples\ntransit,10000\ntransit,30000\n")
+    assert cost_text(exp, 1, store) == (2, "done")
+
+
 def test_an_experiment_file_must_say_what_it_is_for(tmp_path, monkeypatch):
     from mjx_skills.sweeps import experiment_file
 

@@ -4,6 +4,7 @@ would cost here (`sweeps.cost`)."""
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 
 from mjx_skills.sweeps.cells import STORE
@@ -16,7 +17,9 @@ def cost_text(exp: Experiment, jobs: int, store: Path) -> tuple[int, str]:
     from mjx_skills.sweeps import cost
 
     if exp.kind != "train":  # a library experiment: its cells are built libraries
-        return 0, "-"
+        built = tabled_samples(store.parent / f"{exp.name}.csv")
+        stored = sum(n in built for n in exp.samples)
+        return stored, "done" if stored == len(exp.samples) else "-"
     try:
         est = cost.estimate(exp, jobs, store=store)
     except (ValueError, FileNotFoundError):  # no measured cost for one of its methods
@@ -27,10 +30,20 @@ def cost_text(exp: Experiment, jobs: int, store: Path) -> tuple[int, str]:
     return len(est["stored"]), f"{est['wall_s'] / 3600:.1f} h"
 
 
+def tabled_samples(table: Path) -> set[int]:
+    """The sample counts whose libraries a library sweep's committed table holds (its
+    `samples` column; the libraries themselves are not stored, their rows are)."""
+    if not table.exists():
+        return set()
+    with table.open(newline="") as f:
+        return {int(row["samples"]) for row in csv.DictReader(f)}
+
+
 def listing(jobs: int = 1, store: Path = STORE) -> str:
     """Every experiment under its group's heading: name, stored/total cells, the expected
     wall time of the cells not stored (`jobs` at once; '?' where a method's cost was never
-    measured, '-' for library experiments) and its description."""
+    measured; a library experiment's libraries count as stored when its committed table has
+    their rows, '-' for the rest) and its description."""
     by_group: dict[str, list[Experiment]] = {g: [] for g in GROUPS}
     broken = []
     for name in names():
