@@ -96,3 +96,26 @@ def test_modules_of_one_name_in_two_folders_both_load_and_the_variable_is_named(
     assert plugins.named() == [str(tmp_path / "a" / "task.py"), "nowhere_mod"]
     with pytest.raises(SystemExit, match="MJX_SKILLS_IMPORT: nowhere_mod: no module"):
         plugins.take_imports([])
+
+
+def test_an_installed_packages_entry_point_registers_its_task(tmp_path, monkeypatch):
+    """A package that declares `[project.entry-points."mjx_skills.plugins"]` is loaded by
+    every command with no --import; one that fails to load is named."""
+    (tmp_path / "my_lift.py").write_text(
+        f"import runpy\nrunpy.run_path({str(LIFT)!r})\n"  # registers the lift task
+    )
+    (tmp_path / "broken_plugin.py").write_text("raise RuntimeError('no scene here')\n")
+    info = tmp_path / "my_plugin-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: my-plugin\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text(f"[{plugins.GROUP}]\nlift = my_lift\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(registry, "ENVS", dict(registry.ENVS))
+    monkeypatch.setattr(plugins, "_LOADED_ENTRY_POINTS", set())
+    monkeypatch.setenv(plugins.ENV, "")
+    assert "lift" not in registry.ENVS
+    plugins.take_imports([])
+    assert "lift" in registry.ENVS
+    (info / "entry_points.txt").write_text(f"[{plugins.GROUP}]\nbroken = broken_plugin\n")
+    with pytest.raises(SystemExit, match="entry point broken = 'broken_plugin' .* no scene here"):
+        plugins.take_imports([])

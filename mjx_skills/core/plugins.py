@@ -6,19 +6,24 @@ same from the environment. The modules are imported before the command reads its
 arguments; a module registers its tasks and robots when imported
 (`mjx_skills.envs.registry.register_task`, `register_robot`). The names are kept in the
 environment variable, so the worker processes a sweep spawns import them too (a worker
-loads them before its cell: `load_named`), as does `api.load`.
+loads them before its cell: `load_named`), as does `api.load`. An installed package may
+instead declare its modules as entry points of group `mjx_skills.plugins`; every command
+loads those first (`load_entry_points`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib
+import importlib.metadata
 import importlib.util
 import os
 import sys
 from pathlib import Path
 
 ENV = "MJX_SKILLS_IMPORT"
+GROUP = "mjx_skills.plugins"
+"""The entry-point group an installed package registers its modules under (`load_entry_points`)."""
 FLAG = "--import"
 HELP = "a module of yours (dotted name or .py path) that registers tasks or robots; repeatable"
 
@@ -87,10 +92,37 @@ def take_imports(argv: list[str], load_now: bool = True) -> list[str]:
 
 
 def load_all(flagged: list[str] = ()) -> None:
-    """Import every module MJX_SKILLS_IMPORT names. ValueError naming a missing one and how
-    it was given (`flagged`: the ones from `--import`)."""
+    """Load every installed package's `mjx_skills.plugins` entry points, then import every
+    module MJX_SKILLS_IMPORT names. ValueError naming a missing module and how it was given
+    (`flagged`: the ones from `--import`), or an entry point that fails to load."""
+    load_entry_points()
     for module in named():
         load(module, FLAG if module in flagged else f"{ENV}:")
+
+
+_LOADED_ENTRY_POINTS: set[str] = set()
+
+
+def load_entry_points() -> None:
+    """Load (once each) the entry points of group GROUP that installed packages declare, e.g.
+    in a package's pyproject.toml
+
+        [project.entry-points."mjx_skills.plugins"]
+        my_skills = "my_package.skills"
+
+    so that its tasks, robots and skills register with no --import. ValueError naming an
+    entry point that fails to load."""
+    for entry in importlib.metadata.entry_points(group=GROUP):
+        if entry.value in _LOADED_ENTRY_POINTS:
+            continue
+        try:
+            entry.load()
+        except Exception as err:
+            raise ValueError(
+                f"entry point {entry.name} = {entry.value!r} (group {GROUP}) failed to load: "
+                f"{type(err).__name__}: {err}"
+            ) from err
+        _LOADED_ENTRY_POINTS.add(entry.value)
 
 
 def load_named(flagged: list[str] = ()) -> None:
