@@ -264,6 +264,9 @@ def test_a_headline_is_reported_against_its_baseline_on_fresh_seeds_only(tmp_pat
     assert "| reaches 0.9 at epoch | 7 [7, 7] | never [never, never] | - |" in text
     assert "| IQM, epochs 4-8 | 1.00 [1.00, 1.00] | 0.00 [0.00, 0.00] | 1.00 [1.00, 1.00] |" in text
     assert "(0.9 by epoch 8, seeds 100-105): **met**" in text
+    assert "With 6 seeds the IQM intervals are 0.00 (at the target's epoch) and 0.00" in text
+    assert "the same learner's last-5 IQM is 0.00 against the headline's 1.00." in text
+    assert "the same learner" not in alone and "With 6 seeds" in alone
     early = dataclasses.replace(head, target={"level": 0.9, "epoch": 3})
     with pytest.raises(ValueError, match="needs a full 5-epoch window"):
         headlines.report(early, store)  # its IQM window would be empty: nan, not a number
