@@ -8,7 +8,8 @@ Reads the finished cells of the thesis's experiments from the cell store
 made it: `study.results`) and the skill libraries' manifests (Table 5.1). Every number in the
 report is computed here (`mjx_skills.analysis.stats`), and every claim of the thesis's chapter 6
 and Table 5.1 gets a verdict by the rule stated beside it (`study.claims`). Cells not run yet
-are listed as such. Its tables: `study.sections`, `study.faster`, `study.two_cubes`; its
+are listed as such. Its tables: `study.sections`, `study.faster`, `study.two_cubes`,
+`study.fetch` (the Fetch runs beside the published figures); its
 figures: `study.figures`. Run it from the repository's root; it needs the dev extra (rliable).
 """
 
@@ -21,7 +22,7 @@ from pathlib import Path
 
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import write_text_atomic
-from study import faster, headlines, two_cubes
+from study import faster, fetch, headlines, two_cubes
 from study.claims import FAILS, LABEL, LEARNS, THESIS_METHODS, ci, claims
 from study.figures import figure, profiles
 from study.results import EXPERIMENTS, Results
@@ -85,6 +86,8 @@ def render(r: Results, draw: bool = True) -> str:
         "",
         *table5_1(),
     ]
+    lines += ["", "## The Fetch tasks (issue #45, in progress)", ""]
+    lines += fetch.section(FIGURES / "fetch.png", draw)
     lines += ["", "## Where we fall short of the thesis, and why", "", *shorts(r)]
     for experiment in (*EXPERIMENTS[: EXPERIMENTS.index("fast") + 1], two_cubes.EXPERIMENT):
         lines += ["", f"## {TITLES[experiment]}", ""]  # (fast_*: in fast's section)

@@ -305,3 +305,32 @@ def test_a_performance_profile_is_the_share_of_runs_above_each_level():
     assert np.allclose(out["a"][0], [1, 1, 1, 0]) and np.allclose(out["b"][0], [0.5, 0.5, 0.5, 0])
     for profile, low, high in out.values():
         assert np.all(low <= profile + 1e-9) and np.all(profile <= high + 1e-9)
+
+
+def test_the_fetch_section_sets_our_cells_beside_the_published_figures():
+    """Env steps to 0.9 from a cell's curve, 'never (budget N)' when it never gets there, and
+    a verdict against the fastest published plain DDPG+HER of that env (mrl's FetchPush
+    figure: 350,000 env steps)."""
+    from study import fetch
+
+    published = min(
+        f["env_steps"]
+        for f in fetch.published()
+        if f["env"] == "FetchPush-v1" and f["method"] == fetch.PLAIN
+    )
+    late = np.zeros((3, 400))
+    late[:, 300:] = 1.0  # the rolling mean reaches 0.9 at epoch 305: 244,000 env steps
+    never = np.full((3, 400), 0.2)
+    assert (
+        fetch._reach(late, 800) == "244,000"
+        and fetch._reach(never, 800) == "never (budget 320,000)"
+    )
+    (ahead,) = fetch.shortfalls([("late", "fetch_push", 800, late)])[1:]
+    assert "late reaches 0.9 at 244,000 env steps; DDPG w/ HER" in ahead
+    assert f"at {published:,}: we are ahead of the published DDPG+HER" in ahead
+    (short,) = fetch.shortfalls([("never", "fetch_push", 800, never)])[1:]
+    assert "best last-5 mean: 0.20, never, after 320,000 env steps" in short
+    assert short.endswith("we fall short of the published DDPG+HER.")
+    stored = {name for name, *_ in fetch.stored_cells()}
+    assert {"fetch_reach", "fetch_push_her"} <= stored
+    assert fetch.shortfalls([("reach", "fetch_reach", 800, late)]) == []  # nothing published

@@ -1,0 +1,176 @@
+"""The Fetch section of the report (issue #45, so far): every stored cell of an experiment on
+a Fetch task, with env steps to 0.9 and its last-5 success, beside the published DDPG+HER
+figures (`study/published/fetch_her.toml`, read from their sources' plots), and a figure of
+the curves over env steps with the published points marked."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from mjx_skills.analysis import stats
+from mjx_skills.sweeps import cells
+from mjx_skills.sweeps.experiment_file import names
+from mjx_skills.sweeps.experiments import load_experiment
+from study.sections import table
+
+PUBLISHED = Path(__file__).parent / "published" / "fetch_her.toml"
+ENVS = {
+    "fetch_push": "FetchPush",
+    "fetch_pick_and_place": "FetchPickAndPlace",
+    "fetch_reach": "FetchReach",
+    "fetch_slide": "FetchSlide",
+}
+LEVEL = 0.9
+PLAIN = "DDPG w/ HER"
+"""The published method our DDPG+HER is set against (not a variant such as HER+FA)."""
+
+
+def published() -> list[dict]:
+    """The published figures, each a dict of the data file's fields."""
+    return tomllib.loads(PUBLISHED.read_text())["figure"]
+
+
+def stored_cells() -> list[tuple[str, str, int, np.ndarray]]:
+    """(experiment, task, env steps per epoch, (seeds, epochs) success) of every stored cell
+    of an experiment on a Fetch task, in experiment order."""
+    out = []
+    for name in names():
+        exp = load_experiment(name)
+        if exp.kind != "train" or not any(t in ENVS for t in exp.tasks):
+            continue
+        for cell in exp.cells():
+            where = cells.stored(cell, cells.STORE)
+            if where is None:
+                continue
+            rows = cells.read_stored_metrics(where)
+            per_epoch = rows[0]["env_steps"] // rows[0]["epoch"]
+            out.append((name, cell.task, per_epoch, stats.scores_from_rows(rows)))
+    return out
+
+
+def _reach(scores: np.ndarray, per_epoch: int) -> str:
+    hit = stats.first_reaching(scores.mean(axis=0), LEVEL)
+    budget = scores.shape[1] * per_epoch
+    return f"never (budget {budget:,})" if hit is None else f"{hit * per_epoch:,}"
+
+
+def section(figure_path: Path, draw: bool = True) -> list[str]:
+    """The markdown (and, with `draw`, the figure at `figure_path`)."""
+    ours = stored_cells()
+    rows = [
+        [
+            ENVS[task],
+            name,
+            f"{len(s)}",
+            _reach(s, per),
+            "{:.2f} [{:.2f}, {:.2f}]".format(*stats.summarize(s).last),
+        ]
+        for name, task, per, s in ours
+    ]
+    theirs = [
+        [
+            f["env"],
+            f"{f['method']} ({f['source']}, [plot]({f['url']}) at {f['commit']})",
+            f["setting"],
+            f"{f['env_steps']:,}",
+        ]
+        for f in published()
+    ]
+    lines = [
+        "Our runs on gymnasium-robotics' Fetch tasks (the JAX envs, equal to the originals step "
+        "for step): env steps until the 5-epoch rolling mean of the seeds' mean eval success "
+        f"first reaches {LEVEL} (evaluation episodes not counted), and the last-5 mean [95 % "
+        "interval]. Each experiment's file says its settings.",
+        "",
+        *table(["task", "experiment", "seeds", f"env steps to {LEVEL}", "last 5 epochs"], rows),
+        "",
+        f"Published DDPG+HER figures: env steps until the mean success first reaches {LEVEL}, "
+        "read from the sources' plots (how: the data file's header).",
+        "",
+        *table(["env", "method (source)", "setting", f"env steps to {LEVEL}"], theirs),
+    ]
+    lines += shortfalls(ours)
+    if ours and figure(ours, figure_path, draw) is not None:
+        lines += ["", "![The Fetch runs over env steps](figures/fetch.png)"]
+    return lines
+
+
+def shortfalls(ours) -> list[str]:
+    """One sentence per task with a published figure: whether any of our cells reaches the
+    level in fewer env steps than the fastest published plain DDPG+HER (`PLAIN`), or where
+    it stands."""
+    out = []
+    for task, env in ENVS.items():
+        figures = [
+            f for f in published() if f["env"].startswith(env + "-") and f["method"] == PLAIN
+        ]
+        mine = [(name, per, s) for name, t, per, s in ours if t == task]
+        if not figures or not mine:
+            continue
+        best = min(figures, key=lambda f: f["env_steps"])
+        reached = [
+            (stats.first_reaching(s.mean(axis=0), LEVEL), per, name) for name, per, s in mine
+        ]
+        reached = [(hit * per, name) for hit, per, name in reached if hit is not None]
+        theirs = f"{best['method']} ({best['source']}) reaches it at {best['env_steps']:,}"
+        if reached:
+            steps, name = min(reached)
+            verdict = "ahead of" if steps < best["env_steps"] else "behind"
+            out.append(
+                f"On {env}, {name} reaches {LEVEL} at {steps:,} env steps; {theirs}: "
+                f"we are {verdict} the published DDPG+HER."
+            )
+            continue
+        name, per, s = max(mine, key=lambda m: stats.summarize(m[2]).last[0])
+        out.append(
+            f"On {env}, none of our cells reaches {LEVEL} (the best last-5 mean: "
+            f"{stats.summarize(s).last[0]:.2f}, {name}, after {s.shape[1] * per:,} env "
+            f"steps); {theirs}: we fall short of the published DDPG+HER."
+        )
+    return ["", *out] if out else []
+
+
+def figure(ours, out: Path, draw: bool = True) -> Path | None:
+    """Each cell's mean success over env steps (one panel per task, range over seeds shaded),
+    the published figures marked at (env steps, 0.9)."""
+    if not draw:
+        return out
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
+
+    tasks = list(dict.fromkeys(task for _, task, _, _ in ours))
+    fig, axes = plt.subplots(1, len(tasks), figsize=(4.6 * len(tasks), 3.4), squeeze=False)
+    for ax, task in zip(axes[0], tasks, strict=True):
+        for i, (name, cell_task, per, s) in enumerate(ours):
+            if cell_task != task:
+                continue
+            x = np.arange(1, s.shape[1] + 1) * per
+            ax.plot(x, s.mean(axis=0), lw=1.3, color=f"C{i}", label=name)
+            ax.fill_between(x, s.min(axis=0), s.max(axis=0), color=f"C{i}", alpha=0.15, lw=0)
+        for f in published():
+            if f["env"].startswith(ENVS[task] + "-"):
+                ax.plot(f["env_steps"], LEVEL, "k^", ms=6)
+                ax.annotate(
+                    f["method"],
+                    (f["env_steps"], LEVEL),
+                    fontsize=6,
+                    xytext=(3, -10),
+                    textcoords="offset points",
+                )
+        ax.set(title=ENVS[task], xlabel="env steps", ylim=(-0.02, 1.02))
+        ax.set_xlim(0, ax.get_xlim()[1] * 1.12)  # room for the published points' labels
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / 1000:g}k"))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper left")
+    axes[0][0].set_ylabel("eval success (20 episodes)")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
