@@ -133,3 +133,25 @@ def test_the_committed_library_is_found_from_another_working_directory(tmp_path,
     (tmp_path / default).mkdir(parents=True)  # the working directory's own, half-written
     with pytest.raises(ValueError, match="half-written skill library"):
         read_manifest(default)
+
+
+def test_an_install_without_the_checkout_says_where_the_library_is_expected(tmp_path, monkeypatch):
+    """Installed without the checkout (no experiments/ beside the package), a relative library
+    path is looked up in the working directory, then $MJX_SKILLS_HOME; the error names both
+    and the command that builds it (no `make`); $MJX_SKILLS_HOME pointing at a checkout finds
+    its committed library."""
+    from mjx_skills.core import paths
+    from mjx_skills.skills.library import read_manifest
+
+    checkout, default = paths.CHECKOUT, "experiments/skill_library"
+    monkeypatch.setattr(paths, "CHECKOUT", tmp_path / "site-packages")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv(paths.HOME, raising=False)
+    with pytest.raises(FileNotFoundError) as missing:
+        read_manifest(default)
+    said = str(missing.value)
+    assert f"looked up in the working directory, then {tmp_path / 'site-packages'}" in said
+    assert "`make skills`" not in said and "mjx_skills.build_library --out" in said
+    assert f"${paths.HOME}" in said
+    monkeypatch.setenv(paths.HOME, str(checkout))
+    assert read_manifest(default) == read_manifest(checkout / default)

@@ -8,6 +8,7 @@ lost (tests/test_paths.py sweeps every character). Such paths are refused up fro
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 CHECKOUT = Path(__file__).resolve().parents[2]
@@ -42,12 +43,30 @@ def directory(text: str) -> Path:
     return Path(text).expanduser()
 
 
+HOME = "MJX_SKILLS_HOME"
+"""Environment variable: a directory (e.g. a checkout's root) where relative artifact paths
+such as `experiments/skill_library` are looked up after the working directory."""
+
+
+def roots() -> list[Path]:
+    """Where a relative artifact path is looked up after the working directory, in order:
+    $MJX_SKILLS_HOME (when set), then the checkout the package runs from (`CHECKOUT`)."""
+    home = os.environ.get(HOME, "").strip()
+    return [*([Path(home).expanduser()] if home else []), CHECKOUT]
+
+
 def in_checkout(path: str | Path) -> Path:
-    """`path` where it is absolute or exists from the working directory; else, a relative
-    path that exists in the checkout (`CHECKOUT`), that one: the committed skill libraries,
-    which the options name relative to the checkout (`experiments/skill_library`), are then
-    found from any working directory. Else `path` as given (its reader says it is missing)."""
+    """`path` where it is absolute or exists from the working directory; else the first of
+    `roots()` that holds the relative path: the committed skill libraries, which the options
+    name relative to the checkout (`experiments/skill_library`), are then found from any
+    working directory. Else `path` as given (its reader says it is missing)."""
     path = Path(path)
-    if path.is_absolute() or path.exists() or not (CHECKOUT / path).exists():
+    if path.is_absolute() or path.exists():
         return path
-    return CHECKOUT / path
+    return next((root / path for root in roots() if (root / path).exists()), path)
+
+
+def is_checkout() -> bool:
+    """Whether the package runs from a source checkout (with its experiments/), not from an
+    install without one."""
+    return (CHECKOUT / "experiments").is_dir()

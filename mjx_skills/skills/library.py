@@ -27,6 +27,7 @@ from flax import struct
 
 from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, LibraryConfig
+from mjx_skills.core import paths
 from mjx_skills.core.config_io import from_dict
 from mjx_skills.core.files import read_json, tree_sha256, write_json_atomic
 from mjx_skills.core.grouped import apply_per_row, select
@@ -305,9 +306,17 @@ def read_manifest(directory: Path) -> dict[str, Any]:
     directory = in_checkout(directory)
     path = directory / "manifest.json"
     if not directory.exists():
+        where = (
+            ""
+            if directory.is_absolute()
+            else f" (looked up in the working directory, then "
+            f"{', '.join(map(str, paths.roots()))}; set ${paths.HOME} to a checkout's root to "
+            "use its committed libraries)"
+        )
+        build = "`make skills` or " if paths.is_checkout() else ""
         raise FileNotFoundError(
-            f"no skill library at {directory}; build it with `make skills` "
-            f"(python -m mjx_skills.build_library --out {directory})"
+            f"no skill library at {directory}{where}; build it with {build}`python -m "
+            f"mjx_skills.build_library --out {directory}` (hours on a CPU)"
         )
     if not path.exists():
         raise ValueError(f"{directory} is a half-written skill library (no manifest.json)")
