@@ -1,5 +1,5 @@
 """What the MJX path of the Fetch tasks changes, against the native backend on the unedited
-model (the backend `tests/test_fetch.py` holds to gymnasium-robotics' own env):
+model (the backend `tests/envs/test_fetch.py` holds to gymnasium-robotics' own env):
 
 - `edits`: native MuJoCo on the MJX-edited model (`envs.fetch_mjx.MJX_EDITS`) against the
   reference: the edits' effect alone;

@@ -4,7 +4,7 @@ from where it rests (50 steps), on the Baxter robot and its pick_move scene.
     python -m mjx_skills.train ddpg_her --import examples/lift_task/lift.py --task lift
     python -m mjx_skills.sweep --import examples/lift_task/lift.py --tasks lift --methods ddpg_her
 
-(docs/extending.md, "Adding a task"; tests/test_plugins.py runs it.)
+(docs/extending.md, "Adding a task"; tests/core/test_plugins.py runs it.)
 """
 
 import jax

@@ -9,7 +9,7 @@ The first command builds a library of the four Baxter skills (the thesis's three
 push is trained, its data collected and its coarse model and classifier fitted exactly as
 the others'. The second explores pick_move by look-ahead search over all four; the search
 proposes push goals on the table towards the task's goal (`propose_push`). `--task push`
-trains the skill alone. (docs/extending.md, "Adding a skill"; tests/test_skill_plugins.py
+trains the skill alone. (docs/extending.md, "Adding a skill"; tests/skills/test_skill_plugins.py
 runs it.)
 """
 

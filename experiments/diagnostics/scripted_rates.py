@@ -8,7 +8,7 @@
 `--measure` runs `controllers.rollout_scripted` for EPISODES episodes from PRNGKey(SEED) on
 every registered env (native physics, as the tests) and writes one JSON line per env to RESULTS: env,
 episodes, seed, success, and the commit and scenes' digest that made it.
-tests/test_solvable.py runs the same episodes and checks the committed success against
+tests/envs/test_solvable.py runs the same episodes and checks the committed success against
 what it measures; tests/test_package.py checks that the page holds exactly `section()`.
 """
 

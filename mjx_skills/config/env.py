@@ -24,7 +24,7 @@ class EnvConfig:
     (accelerators) or 'auto' (native on a CPU, mjx on a GPU/TPU)."""
     timestep: float = 0.005
     """Physics timestep in s. The thesis uses 0.002 x 75 substeps; a held cube stays put at
-    0.005 s (tests/test_physics.py) and 2.5x fewer substeps make every env step cheaper."""
+    0.005 s (tests/envs/test_physics.py) and 2.5x fewer substeps make every env step cheaper."""
     n_substeps: int = 30
     """Substeps per env step: 0.005 s x 30 = 0.15 s, the thesis's control period."""
     solver_iterations: int = 20

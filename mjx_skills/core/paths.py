@@ -3,7 +3,7 @@
 Orbax (the checkpoints, the skill library's arrays) finishes a save by globbing its own
 directory, so a path holding a glob class (`runs[v2]/`) or a backslash saves nothing it can
 read back: the save only logs "Skipping merge of OCDBT checkpoints" and the trained run is
-lost (tests/test_paths.py sweeps every character). Such paths are refused up front.
+lost (tests/core/test_paths.py sweeps every character). Such paths are refused up front.
 """
 
 from __future__ import annotations

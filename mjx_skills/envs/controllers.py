@@ -1,6 +1,6 @@
 """Scripted controllers: move above, descend, close, lift, carry, (detour,) release.
 
-They prove that the physics and predicates allow every task (tests/test_solvable.py) and
+They prove that the physics and predicates allow every task (tests/envs/test_solvable.py) and
 serve as baselines and demos. Stateless: each action is a pure function of (obs, goal),
 so they vmap and run inside the same jitted rollouts as the learned policies.
 """

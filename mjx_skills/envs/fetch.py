@@ -4,7 +4,7 @@ observation and start state, on the native MuJoCo backend or MJX (`envs/fetch_mj
 The MJCF is the installed gymnasium-robotics package's own (never copied into xml/), with
 sensors added (`mujoco.MjSpec`) so that the native backend's `sensordata` carries every
 kinematic quantity the observation reads; sensors do not act on the dynamics
-(`tests/test_fetch.py` steps both models side by side). The facts below are
+(`tests/envs/test_fetch.py` steps both models side by side). The facts below are
 gymnasium-robotics' (`envs/fetch/fetch_env.py`, `utils/mujoco_utils.py`, MIT); the code is
 ours. `FetchRobot` is what a task reads of the robot: the `envs.robot.Robot` contract's
 Fetch (scene, end-effector controller, gripper, observation layout, workspace, start state).

@@ -8,7 +8,7 @@ meshes) have margin 0.001. `MJX_EDITS` lists every edit the MJX path makes, each
 reason; the native path makes none of them (it steps gymnasium-robotics' model as
 `envs.fetch.load_model` builds it). What the edits and MJX together change is measured
 against the native backend on the unedited model by `benchmarks/fetch_mjx_parity.py`
-(`benchmarks/results/fetch_mjx_parity.jsonl`) and bounded by `tests/test_fetch_mjx.py`.
+(`benchmarks/results/fetch_mjx_parity.jsonl`) and bounded by `tests/envs/test_fetch_mjx.py`.
 
 A scene MJX cannot run even with the edits is in `MJX_REFUSALS` with MJX's own reason: Slide,
 whose puck is a cylinder, and MJX has no cylinder-mesh collision. The other three run on MJX
@@ -103,7 +103,7 @@ MJX_REFUSALS: dict[str, str] = {
         "meshes); use physics='native'"
     ),
 }
-"""Scene -> why MJX cannot run it (checked by tests/test_fetch_mjx.py against put_model)."""
+"""Scene -> why MJX cannot run it (checked by tests/envs/test_fetch_mjx.py against put_model)."""
 
 
 def edit_for_mjx(model: mujoco.MjModel, edits: tuple[ModelEdit, ...] = MJX_EDITS) -> mujoco.MjModel:

@@ -1,5 +1,5 @@
 """gymnasium-robotics 1.4.2's own Fetch envs, made to run on mujoco 4.0: the reference that
-`tests/test_fetch.py` compares the JAX Fetch tasks with. Nothing else imports this module;
+`tests/envs/test_fetch.py` compares the JAX Fetch tasks with. Nothing else imports this module;
 the JAX envs never run gymnasium-robotics' code.
 
 Why a patch: gymnasium-robotics' `utils/mujoco_utils.py` checks a joint's type with

@@ -1,6 +1,6 @@
 """Scripted controllers of the Fetch tasks: simple state machines on the observation (the
 state is read from it at every step, nothing is remembered), in JAX. They show the tasks
-solvable in this physics (`tests/test_fetch.py` requires 90 % success over 64 episodes)
+solvable in this physics (`tests/envs/test_fetch.py` requires 90 % success over 64 episodes)
 and drive the contact-rich episodes the parity tests replay in gymnasium-robotics.
 
 Each is policy(obs (..., obs_dim), goal (..., 3)) -> action (..., 4) in [-1, 1]: the

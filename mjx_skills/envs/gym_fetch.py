@@ -8,7 +8,7 @@ registered by `import mjx_skills.envs.gym` beside gymnasium-robotics' own FetchR
 One env whose reset and step are the JAX env's own, jitted (`FetchTask.reset(key)`,
 `FetchTask.step(state, action)`: native MuJoCo in a host callback), so an episode is the
 JAX env's episode from the same key, and the JAX env equals gymnasium-robotics' step for
-step (`tests/test_fetch.py`). What it shares with the Baxter adapter (construction and its
+step (`tests/envs/test_fetch.py`). What it shares with the Baxter adapter (construction and its
 refusals, spaces, seeding, the batched reward, drawing) is `gym.GoalGymEnv`.
 """
 

@@ -46,7 +46,7 @@ class RunArgs:
     extend_to: int | None = None
     """With `resume`: train on to this many epochs (at least the run's own), and record the
     new budget in its config.json. Nothing in an epoch reads the total, so the run equals
-    one started with that many (tests/test_train.py)."""
+    one started with that many (tests/training/test_train.py)."""
 
     def full_options(self) -> dict[str, Any]:
         spec = methods.get(self.method)

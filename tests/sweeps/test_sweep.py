@@ -164,7 +164,7 @@ def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, 
     assert drop_wall(read_metrics(run_dirs[0])) == drop_wall(read_metrics(serial_run))
     per_seed = [json.loads(line) for line in jsonl_path.read_text().splitlines()]
     assert {r["task"] for r in per_seed} == {"transit", "transfer"} and len(per_seed) == 8
-    with pytest.raises(SystemExit):  # the message: tests/test_experiment_files.py
+    with pytest.raises(SystemExit):  # the message: tests/sweeps/test_experiment_files.py
         sweep.main(["--experiment", "smoke", "--jobs", "0", "--sweep-dir", str(tmp_path)])
 
 

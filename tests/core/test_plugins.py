@@ -12,7 +12,7 @@ import pytest
 from mjx_skills.core import plugins
 from mjx_skills.envs import registry
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 LIFT = ROOT / "examples" / "lift_task" / "lift.py"
 TINY = ["--envs", "2", "--cycles", "1", "--updates-per-cycle", "2", "--eval-episodes", "2"]
 

@@ -14,7 +14,7 @@ from mjx_skills.core import rollout
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT
 from mjx_skills.skills import library
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EPISODES = 200
 
 

@@ -92,7 +92,7 @@ def test_slide_is_refused_on_mjx_with_mjx_reason():
             assert resolve_physics(scene, "auto", device) == "native"
 
 
-PARITY = Path(__file__).resolve().parents[1] / "benchmarks/results/fetch_mjx_parity.jsonl"
+PARITY = Path(__file__).resolve().parents[2] / "benchmarks/results/fetch_mjx_parity.jsonl"
 
 
 def test_reach_on_mjx_follows_the_native_reference():

@@ -20,7 +20,7 @@ from mjx_skills.skills import library
 from mjx_skills.skills.registry import SKILLS, robots_with_skills
 from mjx_skills.training.runner import RunArgs, train_run
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 COMMITTED = [ROOT / "experiments" / "skill_library", ROOT / "experiments" / "skill_library_thesis"]
 SAMPLE_TASK = {"baxter": "pick_move", "fetch": "fetch_pick_and_place"}
 """A task of each robot whose scene has an object (one make per robot: each builds a model)."""

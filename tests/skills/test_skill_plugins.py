@@ -17,7 +17,7 @@ from mjx_skills.envs import registry as envs
 from mjx_skills.envs.baxter import OBS_OBJECT
 from mjx_skills.skills import library, lookahead, registry, stalls, table
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PUSH = ROOT / "examples" / "push_skill" / "push.py"
 FOUR = ("transit", "grasp", "transfer", "push")
 

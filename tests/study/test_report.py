@@ -189,7 +189,7 @@ def test_published_figures_carry_their_sources():
     import tomllib
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "study" / "published" / "fetch_her.toml"
+    path = Path(__file__).resolve().parents[2] / "study" / "published" / "fetch_her.toml"
     figures = tomllib.loads(path.read_text())["figure"]
     assert figures
     for f in figures:

@@ -17,7 +17,7 @@ from mjx_skills.config import TrainConfig
 from mjx_skills.evaluate import evaluate_jax
 from mjx_skills.training.runner import RunArgs, train_run
 
-USAGE = Path(__file__).resolve().parents[1] / "docs" / "usage.md"
+USAGE = Path(__file__).resolve().parents[2] / "docs" / "usage.md"
 
 
 @pytest.fixture(scope="module")

@@ -8,8 +8,8 @@ import pytest
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")
 
-EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
-SMALL_RESULTS = Path(__file__).resolve().parent / "data" / "results"
+EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
+SMALL_RESULTS = Path(__file__).resolve().parents[1] / "data" / "results"
 
 
 def test_analysis_notebook_draws_the_figures_it_has_results_for(tmp_path, monkeypatch):

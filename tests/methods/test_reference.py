@@ -15,7 +15,7 @@ import pytest
 from mjx_skills.config import EnvConfig, TrainConfig
 from mjx_skills.training.epoch import build, host_metrics
 
-REFERENCE = Path(__file__).parent / "data" / "ddpg_her_reference.json"
+REFERENCE = Path(__file__).resolve().parents[1] / "data" / "ddpg_her_reference.json"
 
 
 @pytest.mark.skipif(

@@ -303,7 +303,7 @@ def test_scripted_controllers_solve_the_tasks_in_this_physics(task):
 
 # ---------------------------------------------------------------- what Fetch refuses
 def test_auto_is_native_on_a_cpu():
-    """MJX (its model edits, Slide's refusal, its parity): tests/test_fetch_mjx.py."""
+    """MJX (its model edits, Slide's refusal, its parity): tests/envs/test_fetch_mjx.py."""
     if jax.default_backend() == "cpu":
         assert make("fetch_reach", physics="auto").backend.name == "native"
 

@@ -1,7 +1,7 @@
 """Every option changes the program of a method that reads it, on a task where it applies
 (several-cube options on a two-cube task), or is declared to act outside it (`OUTSIDE`,
 with what it does instead); several-cube options are refused on one cube
-(tests/test_experiment_files.py and `methods.check_task`).
+(tests/sweeps/test_experiment_files.py and `methods.check_task`).
 
 One epoch of each (method, task) is traced (`jax.make_jaxpr`, nothing compiled or run)
 with its defaults and again with one option changed (`changed`); the two programs must
@@ -40,7 +40,7 @@ OUTSIDE = {
     "train.wandb_project": "the host's logging",
     "search.library_dir": "which library's arrays the program is given",
     "pas.library_dir": "which library's arrays the program is given",
-    "env.physics": "the backend: 'auto' is native on a CPU (tests/test_physics.py)",
+    "env.physics": "the backend: 'auto' is native on a CPU (tests/envs/test_physics.py)",
     "env.native_threads": "the native backend's host threads",
 }
 """Options that act outside the traced epoch -> what they do instead."""

@@ -16,7 +16,7 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.core.learner import Progress
 from mjx_skills.envs import make
 from mjx_skills.methods import ddpg_her_sl_fast as fast
-from tests.test_search import NAMES, KnownLibrary, states
+from tests.fakes import NAMES, KnownLibrary, states
 
 CONFIG = DDPGConfig(hidden=(16,))
 ONE_CUBE = make("pick_move")
