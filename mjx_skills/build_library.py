@@ -70,7 +70,7 @@ class SkillsArgs:
         if wrong or len(set(names)) != len(names):
             raise ValueError(
                 f"--skills {' '.join(names)}: each once, from the {self.robot} skills "
-                f"{', '.join(own)}"
+                f"{', '.join(own)} (a skill of your own: --import the module that registers it)"
             )
         return names
 
@@ -88,7 +88,7 @@ def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
     args = RunArgs(
         train=TrainConfig(
             task=name,
-            epochs=getattr(config, f"{name}_epochs", skill.epochs),
+            epochs=registry.epochs_of(skill, config),
             seed=config.seed,
             replay_capacity=200_000,
             out=str(work),

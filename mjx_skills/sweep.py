@@ -106,9 +106,11 @@ def build_library(cell: Cell, cell_dir: Path, progress: bool) -> Path:
     directory (the trained skills), and a library is written whole or not at all."""
     from mjx_skills.build_library import SkillsArgs, build
     from mjx_skills.config import LibraryConfig
+    from mjx_skills.skills.registry import library_skills
 
     overrides = dict(dict(cell.options).get("library", ()))
     args = SkillsArgs(
+        skills=library_skills("SL1"),  # the thesis's skills, whatever else is registered
         config=LibraryConfig(samples=cell.samples, **overrides),
         out=str(cell_dir / "library"),
         progress=progress,

@@ -110,13 +110,16 @@ def load_entry_points() -> None:
         [project.entry-points."mjx_skills.plugins"]
         my_skills = "my_package.skills"
 
-    so that its tasks, robots and skills register with no --import. ValueError naming an
-    entry point that fails to load."""
+    so that its tasks, robots and skills register with no --import (a value naming a
+    function, "my_package.skills:register", is called). ValueError naming an entry point
+    that fails to load."""
     for entry in importlib.metadata.entry_points(group=GROUP):
         if entry.value in _LOADED_ENTRY_POINTS:
             continue
         try:
-            entry.load()
+            loaded = entry.load()
+            if entry.attr:  # "package.module:register": a function that registers, called
+                loaded()
         except Exception as err:
             raise ValueError(
                 f"entry point {entry.name} = {entry.value!r} (group {GROUP}) failed to load: "

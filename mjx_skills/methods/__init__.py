@@ -161,22 +161,35 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     (the library its option group's `library_dir` names: its manifest's robot; a library
     not built yet would be `build_library`'s, of the robot of the skill envs). The message
     names the library's robot and how to build one for the task's robot, or says that no
-    command builds one yet. Reads only the manifest: nothing is loaded or written."""
+    command builds one yet. Also a ValueError for an unregistered library name, or a built
+    library without a skill the named library needs. Reads only the manifest: nothing is
+    loaded or written."""
     from mjx_skills.core.files import read_json
     from mjx_skills.core.paths import in_checkout
     from mjx_skills.envs.registry import robot_of
     from mjx_skills.skills.library import library_robot
-    from mjx_skills.skills.registry import SKILLS, robots_with_skills, skills_of
+    from mjx_skills.skills.registry import SKILLS, library_skills, robots_with_skills, skills_of
 
     spec = get(method)
     group = spec.library_group
     if group is None:
         return
     robot = robot_of(task)
-    directory = in_checkout((options or {}).get(group, spec.options[group]).library_dir)
+    chosen = (options or {}).get(group, spec.options[group])
+    skills = library_skills(chosen.library)  # ValueError naming the registered libraries
+    directory = in_checkout(chosen.library_dir)
     manifest = directory / "manifest.json"
     default_robot = next(iter(SKILLS.values())).env.robot_name  # build_library's default
-    built_for = library_robot(read_json(manifest)) if manifest.exists() else default_robot
+    held = read_json(manifest) if manifest.exists() else None
+    built_for = library_robot(held) if held else default_robot
+    lacking = [n for n in skills if held and n not in held.get("models", {})]
+    if lacking:
+        raise ValueError(
+            f"--{group}.library {chosen.library} needs the skills {', '.join(skills)}; the "
+            f"library at {directory} (--{group}.library-dir) was built without "
+            f"{', '.join(lacking)}: build one with them (`python -m mjx_skills.build_library "
+            f"--import YOUR_MODULE --out DIR`) and pass --{group}.library-dir DIR"
+        )
     if built_for == robot:
         return
     flag = f"--{group}.library-dir"

@@ -59,10 +59,16 @@ def sample_edges(
     ok = jnp.take_along_axis(allowed, skill, axis=1)
 
     edges = registry.Edges(obs, task_goal, noise, height, lift, way, where)
-    proposers = [registry.get(name).propose for name in names]
-    goals = jnp.stack(
-        [propose(env, cfg, edges) for propose, env in zip(proposers, lib.envs, strict=True)]
-    )  # (K, N, b, 3)
+    proposed = []
+    for name, env in zip(names, lib.envs, strict=True):
+        goal = registry.get(name).propose(env, cfg, edges)
+        if goal.shape != noise.shape:
+            raise ValueError(
+                f"skill {name!r}: its proposer returned goals of shape {goal.shape}; "
+                f"expected (N, b, 3) = {noise.shape}"
+            )
+        proposed.append(goal)
+    goals = jnp.stack(proposed)  # (K, N, b, 3)
     goal = jnp.take_along_axis(goals, skill[None, ..., None], axis=0)[0]
     return skill, goal, ok
 

@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 
 from mjx_skills.config import LIBRARIES as THESIS_LIBRARIES
-from mjx_skills.config import SearchConfig
+from mjx_skills.config import LibraryConfig, SearchConfig
 from mjx_skills.envs import registry as envs
 
 Start = Literal["empty", "held", "any"]
@@ -79,9 +79,9 @@ class Skill:
     held_training_starts: bool = False
     """`build_library` trains it with `LibraryConfig.grasp_held_start_prob` of its episodes
     starting with the object held (the thesis's grasp)."""
-    epochs: int = 100
-    """DDPG+HER epochs `build_library` trains it for, unless `LibraryConfig` has a field
-    `<name>_epochs` (the thesis's three skills)."""
+    epochs: int | str = 100
+    """DDPG+HER epochs `build_library` trains it for: a number, or the name of the
+    `LibraryConfig` field that holds it (the thesis's skills: `transit_epochs`, ...)."""
     thesis_cm: tuple[float, float] | None = None
     """Table 5.1 of the thesis, (memory, neural network) terminal error in cm, if it has one."""
 
@@ -112,13 +112,21 @@ def _near_task_goal(env, cfg: SearchConfig, e: Edges) -> jax.Array:
 
 
 _BUILT_IN = (
-    Skill("transit", envs.ENVS["transit"], _above_object, moves=True, thesis_cm=(1.9, 1.6)),
+    Skill(
+        "transit",
+        envs.ENVS["transit"],
+        _above_object,
+        moves=True,
+        epochs="transit_epochs",
+        thesis_cm=(1.9, 1.6),
+    ),
     Skill(
         "grasp",
         envs.ENVS["grasp"],
         _lift,
         near_object=True,
         held_training_starts=True,
+        epochs="grasp_epochs",
         thesis_cm=(2.8, 1.2),
     ),
     Skill(
@@ -127,6 +135,7 @@ _BUILT_IN = (
         _near_task_goal,
         start="held",
         moves=True,
+        epochs="transfer_epochs",
         thesis_cm=(4.6, 2.0),
     ),
 )
@@ -184,7 +193,12 @@ def register_skill(skill: Skill) -> None:
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"skill name {name!r}: letters, digits and _ (a Python identifier)")
     if name in SKILLS or name in envs.ENVS:
-        raise ValueError(f"skill {name!r}: the name is registered already; choose another")
+        raise ValueError(
+            f"skill {name!r}: the name is registered already; choose another (or is its "
+            "module imported twice, e.g. by --import and MJX_SKILLS_IMPORT or an entry point?)"
+        )
+    if not isinstance(skill.env, type):
+        raise ValueError(f"skill {name!r}: env must be a class (its env's), got {skill.env!r}")
     if skill.start not in STARTS:
         raise ValueError(f"skill {name!r}: start {skill.start!r}; valid: {', '.join(STARTS)}")
     if not callable(skill.propose):
@@ -195,6 +209,23 @@ def register_skill(skill: Skill) -> None:
         raise ValueError(f"skill {name!r}: its env {skill.env!r} lacks {', '.join(missing)}")
     if not 1 <= skill.env.param_dim <= 3:
         raise ValueError(f"skill {name!r}: param_dim {skill.env.param_dim}; valid: 1 to 3")
+    epochs = skill.epochs
+    if isinstance(epochs, bool) or not (
+        (isinstance(epochs, int) and epochs >= 1)
+        or (
+            isinstance(epochs, str)
+            and epochs in {f.name for f in dataclasses.fields(LibraryConfig)}
+        )
+    ):
+        raise ValueError(
+            f"skill {name!r}: epochs {epochs!r}; valid: a whole number >= 1, or a LibraryConfig "
+            "field that holds one"
+        )
+    cm = skill.thesis_cm
+    if cm is not None and not (
+        isinstance(cm, tuple) and len(cm) == 2 and all(isinstance(x, int | float) for x in cm)
+    ):
+        raise ValueError(f"skill {name!r}: thesis_cm {cm!r}; valid: None or (memory, model) in cm")
     envs.register_task(name, skill.env)
     SKILLS[name] = skill
 
@@ -205,8 +236,14 @@ def register_library(name: str, skills: tuple[str, ...]) -> None:
     if not isinstance(name, str) or not name.isidentifier() or name in LIBRARIES:
         raise ValueError(f"library {name!r}: taken or not an identifier; taken: {list(LIBRARIES)}")
     skills = tuple(skills)
-    for skill in skills:
-        get(skill)
+    robots = {get(skill).env.robot_name for skill in skills}
     if not skills or len(set(skills)) != len(skills):
         raise ValueError(f"library {name!r}: {skills} must name each skill once, at least one")
+    if len(robots) > 1:
+        raise ValueError(f"library {name!r}: its skills are of several robots ({sorted(robots)})")
     LIBRARIES[name] = skills
+
+
+def epochs_of(skill: Skill, config: LibraryConfig) -> int:
+    """The DDPG+HER epochs `build_library` trains `skill` for (`Skill.epochs`)."""
+    return getattr(config, skill.epochs) if isinstance(skill.epochs, str) else skill.epochs

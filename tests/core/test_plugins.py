@@ -116,6 +116,13 @@ def test_an_installed_packages_entry_point_registers_its_task(tmp_path, monkeypa
     assert "lift" not in registry.ENVS
     plugins.take_imports([])
     assert "lift" in registry.ENVS
+    (tmp_path / "late_lift.py").write_text(
+        "from mjx_skills.envs.registry import ENVS, register_task\n"
+        "def register():\n    register_task('late_lift', ENVS['lift'])\n"
+    )
+    (info / "entry_points.txt").write_text(f"[{plugins.GROUP}]\nlate = late_lift:register\n")
+    plugins.take_imports([])
+    assert "late_lift" in registry.ENVS  # a function named by the entry point is called
     (info / "entry_points.txt").write_text(f"[{plugins.GROUP}]\nbroken = broken_plugin\n")
     with pytest.raises(SystemExit, match="entry point broken = 'broken_plugin' .* no scene here"):
         plugins.take_imports([])

@@ -28,6 +28,7 @@ def push(monkeypatch):
     monkeypatch.setattr(registry, "SKILLS", dict(registry.SKILLS))
     monkeypatch.setattr(registry, "LIBRARIES", dict(registry.LIBRARIES))
     monkeypatch.setattr(envs, "ENVS", dict(envs.ENVS))
+    monkeypatch.setattr(library, "_ENV_CACHE", {})  # no env of another registration kept
     return runpy.run_path(str(PUSH))
 
 
@@ -57,9 +58,25 @@ def test_bad_registrations_are_named(push):
         registry.register_library("SL1", ("push",))
     with pytest.raises(ValueError, match=r"unknown library 'SL9' \(--search.library"):
         registry.library_skills("SL9")
+    with pytest.raises(ValueError, match="env must be a class"):
+        registry.register_skill(dataclasses.replace(skill, env=Push()))
+    for epochs in (0, -3, "fit_epoch", True):
+        with pytest.raises(ValueError, match=f"epochs {epochs!r}; valid: a whole number"):
+            registry.register_skill(dataclasses.replace(skill, epochs=epochs))
+    with pytest.raises(ValueError, match="thesis_cm 'bad'"):
+        registry.register_skill(dataclasses.replace(skill, thesis_cm="bad"))
+    with pytest.raises(ValueError, match="imported twice"):
+        registry.register_skill(dataclasses.replace(skill, name="push"))
+    registry.register_skill(
+        dataclasses.replace(
+            skill, name="fetch_shove", env=type("F", (Push,), {"robot_name": "fetch"})
+        )
+    )
+    with pytest.raises(ValueError, match=r"several robots \(\['baxter', 'fetch'\]\)"):
+        registry.register_library("SL_mixed", ("push", "fetch_shove"))
     assert "shove" not in registry.SKILLS and "shove" not in envs.ENVS  # nothing half-registered
     assert registry.library_skills("SL_push") == FOUR
-    assert registry.skills_of("baxter") == FOUR and registry.skills_of("fetch") == ()
+    assert registry.skills_of("baxter") == FOUR and registry.skills_of("fetch") == ("fetch_shove",)
 
 
 def test_build_library_names_the_skills_it_can_build(push):
@@ -133,3 +150,35 @@ def test_a_library_with_the_push_skill_is_built_loaded_and_searched(push, tmp_pa
     )
     (row,) = table.table_rows(out)
     assert row["skill"] == "push" and row["thesis_memory_cm"] == "" and row["thesis_model_cm"] == ""
+
+
+def test_a_library_name_or_a_built_library_without_its_skills_is_refused_before_a_run(push):
+    """`--search.library SL_push` against the committed three-skill library, or an unknown
+    library name, is refused by `methods.check_task` (before any run directory), naming the
+    option and what to build."""
+    from mjx_skills import methods
+
+    with pytest.raises(
+        ValueError, match="--search.library SL_push needs the skills .*without push"
+    ):
+        methods.check_task("ddpg_her_sl", "pick_move", {"search": SearchConfig(library="SL_push")})
+    with pytest.raises(ValueError, match=r"unknown library 'SL4' \(--search.library"):
+        methods.check_task("ddpg_her_sl", "pick_move", {"search": SearchConfig(library="SL4")})
+    methods.check_task("ddpg_her_sl", "pick_move", {"search": SearchConfig(library="SL2")})
+
+
+def test_a_proposer_of_the_wrong_shape_is_named(push, monkeypatch):
+    flat = lambda env, cfg, edges: edges.obs[:, :3]  # noqa: E731  (N, 3), not (N, b, 3)
+    monkeypatch.setitem(
+        registry.SKILLS, "push", dataclasses.replace(registry.SKILLS["push"], propose=flat)
+    )
+    lib = library.empty_like(FOUR, DDPGConfig(), LibraryConfig(), memory_size=2)
+    cfg = SearchConfig(height=1)
+    obs, goal = _states(2)
+    draws = lookahead.level_draws(
+        lookahead.draw_edges(lookahead.env_keys(jax.random.PRNGKey(1), 2), cfg, 4), 0, cfg.branching
+    )
+    with pytest.raises(
+        ValueError, match=r"skill 'push': its proposer returned goals of shape \(2, 3\)"
+    ):
+        lookahead.sample_edges(lib, cfg, obs, goal, draws)

@@ -267,6 +267,9 @@ def test_a_variant_drops_inherited_keys_with_unset(tmp_path, monkeypatch):
     (tmp_path / "typo.toml").write_text(head + 'unset = ["train.env"]\n')
     with pytest.raises(ValueError, match="unset 'train.env': the file it extends has no such key"):
         load_experiment("typo")
+    (tmp_path / "twice.toml").write_text(head + 'unset = ["seeds", "seeds"]\n')
+    with pytest.raises(ValueError, match="unset names a key twice"):
+        load_experiment("twice")
     (tmp_path / "alone.toml").write_text('description = "a"\ngroup = "beyond"\nunset = ["seeds"]\n')
     with pytest.raises(ValueError, match="unset drops inherited keys, so it needs extends"):
         load_experiment("alone")
