@@ -18,6 +18,8 @@ examples/push_skill/).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import inspect
 from collections.abc import Callable
 from typing import Literal, NamedTuple
 
@@ -247,3 +249,28 @@ def register_library(name: str, skills: tuple[str, ...]) -> None:
 def epochs_of(skill: Skill, config: LibraryConfig) -> int:
     """The DDPG+HER epochs `build_library` trains `skill` for (`Skill.epochs`)."""
     return getattr(config, skill.epochs) if isinstance(skill.epochs, str) else skill.epochs
+
+
+def fingerprint(library: str) -> dict[str, dict[str, str]] | None:
+    """What a stored result made with library `library` depends on beyond its config, for a
+    library of the user's (None for the thesis's, whose skills are the package's code): each
+    skill's settings and a digest of its proposer's and its env's source, so a changed skill
+    is never taken for the one a stored cell ran with."""
+    if library in THESIS_LIBRARIES:
+        return None
+    out = {}
+    for name in library_skills(library):
+        skill = get(name)
+        fields = {f.name: repr(getattr(skill, f.name)) for f in dataclasses.fields(skill)}
+        fields.update(propose=_source_digest(skill.propose), env=_source_digest(skill.env))
+        out[name] = fields
+    return out
+
+
+def _source_digest(obj) -> str:
+    """sha256 of `obj`'s source (its qualified name where the source cannot be read)."""
+    try:
+        text = inspect.getsource(obj)
+    except (OSError, TypeError):
+        text = getattr(obj, "__qualname__", repr(obj))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]

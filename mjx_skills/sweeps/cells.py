@@ -61,13 +61,17 @@ def _results_part(config: dict[str, Any]) -> dict[str, Any]:
 
 
 def library_provenance(config: dict[str, Any]) -> dict[str, Any] | None:
-    """The commit and scenes' digest of the library a config's method reads (None: none)."""
+    """The commit and scenes' digest of the library a config's method reads (None: none),
+    and for a library of the user's its skills' definitions (`registry.fingerprint`)."""
     from mjx_skills.skills.library import read_manifest
+    from mjx_skills.skills.registry import fingerprint
 
     for group in config.get("options", {}).values():
         if "library_dir" in group:
             manifest = read_manifest(Path(group["library_dir"]))
-            return {"commit": manifest.get("commit"), "scenes": manifest.get("scenes")}
+            out = {"commit": manifest.get("commit"), "scenes": manifest.get("scenes")}
+            skills = fingerprint(group["library"])  # a library of the user's skills
+            return out if skills is None else {**out, "skills": skills}
     return None
 
 

@@ -16,6 +16,7 @@ from mjx_skills.config import DDPGConfig, LibraryConfig, SearchConfig
 from mjx_skills.envs import registry as envs
 from mjx_skills.envs.baxter import OBS_OBJECT
 from mjx_skills.skills import library, lookahead, registry, stalls, table
+from mjx_skills.skills.library import DEFAULT_DIR
 
 ROOT = Path(__file__).resolve().parents[2]
 PUSH = ROOT / "examples" / "push_skill" / "push.py"
@@ -182,3 +183,21 @@ def test_a_proposer_of_the_wrong_shape_is_named(push, monkeypatch):
         ValueError, match=r"skill 'push': its proposer returned goals of shape \(2, 3\)"
     ):
         lookahead.sample_edges(lib, cfg, obs, goal, draws)
+
+
+def test_a_result_with_the_users_skills_depends_on_their_definitions(push, monkeypatch):
+    """A stored cell's definition records a user library's skills (settings and a digest of
+    the proposer's and env's source): a changed proposer is a different definition; the
+    thesis's libraries record nothing more (every stored cell is still found)."""
+    from mjx_skills.sweeps import cells
+
+    assert registry.fingerprint("SL1") is None
+    before = registry.fingerprint("SL_push")
+    assert set(before) == set(FOUR) and before["push"]["start"] == "'empty'"
+    other = dataclasses.replace(registry.SKILLS["push"], propose=lambda env, cfg, e: e.noise)
+    monkeypatch.setitem(registry.SKILLS, "push", other)
+    assert registry.fingerprint("SL_push")["push"]["propose"] != before["push"]["propose"]
+    config = {"options": {"search": {"library": "SL_push", "library_dir": str(DEFAULT_DIR)}}}
+    assert cells.library_provenance(config)["skills"] == registry.fingerprint("SL_push")
+    config["options"]["search"]["library"] = "SL1"
+    assert set(cells.library_provenance(config)) == {"commit", "scenes"}
