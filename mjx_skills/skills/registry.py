@@ -181,7 +181,8 @@ def library_skills(name: str) -> tuple[str, ...]:
     if name not in LIBRARIES:
         raise ValueError(
             f"unknown library {name!r} (--search.library / --pas.library); valid: "
-            f"{', '.join(LIBRARIES)} (one of your own: `register_library`)"
+            f"{', '.join(LIBRARIES)} (one of your own: `register_library` in a module passed "
+            "with --import MODULE)"
         )
     return LIBRARIES[name]
 

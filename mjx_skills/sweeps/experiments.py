@@ -102,7 +102,10 @@ class Experiment:
         for method in self.methods:
             methods.preset_options(method, self.preset)  # unknown method or preset fails here
         for lib in self.libraries:
-            library_skills(lib)
+            try:
+                library_skills(lib)
+            except ValueError as err:
+                raise ValueError(f"experiment {self.name}: {err}") from None
         if self.seeds < 1 or self.epochs < 1:
             raise ValueError(f"experiment {self.name}: seeds and epochs must be >= 1")
         self._check_seeds()
