@@ -76,3 +76,11 @@ def states(n: int, held: bool) -> tuple[jax.Array, jax.Array]:
     # Goals at least 8 cm above the cube's centre: the task is never solved at the start.
     goal = rng.uniform([0.55, -0.4, 0.12], [0.8, 0.0, 0.2], (n, 3)).astype(np.float32)
     return consistent(LAYOUT, jnp.asarray(obs)), jnp.asarray(goal)
+
+
+@dataclasses.dataclass(frozen=True)
+class EncodingLibrary(KnownLibrary):
+    """A library whose skill policies say who they are: action = (skill / 10, goal)."""
+
+    def policy_action(self, skill, obs, goal):
+        return jnp.concatenate([skill[:, None] / 10.0, goal], axis=-1)

@@ -182,15 +182,16 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     default_robot = next(iter(SKILLS.values())).env.robot_name  # build_library's default
     held = read_json(manifest) if manifest.exists() else None
     built_for = library_robot(held) if held else default_robot
-    lacking = [n for n in skills if held and n not in held.get("models", {})]
-    if lacking:
-        raise ValueError(
-            f"--{group}.library {chosen.library} needs the skills {', '.join(skills)}; the "
-            f"library at {directory} (--{group}.library-dir) was built without "
-            f"{', '.join(lacking)}: build one with them (`python -m mjx_skills.build_library "
-            f"--import YOUR_MODULE --out DIR`) and pass --{group}.library-dir DIR"
-        )
-    if built_for == robot:
+    if built_for == robot:  # the right robot: does it hold the skills the name needs?
+        models = (held or {}).get("models")  # a manifest without them (a fake) says nothing
+        lacking = [n for n in skills if models is not None and n not in models]
+        if lacking:
+            raise ValueError(
+                f"--{group}.library {chosen.library} needs the skills {', '.join(skills)}; the "
+                f"library at {directory} (--{group}.library-dir) was built without "
+                f"{', '.join(lacking)}: build one with them (`python -m mjx_skills.build_library "
+                f"--import YOUR_MODULE --out DIR`) and pass --{group}.library-dir DIR"
+            )
         return
     flag = f"--{group}.library-dir"
     built = "is built" if manifest.exists() else "would be built (none there yet)"

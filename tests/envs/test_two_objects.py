@@ -182,11 +182,10 @@ def test_a_library_skill_acts_on_cube_k_as_on_the_cube_of_a_one_cube_scene(k):
 
 def _held_scene(two, n: int, held: int) -> jax.Array:
     """(n, 40) observations: cube `held` closed in the fingers, the other on the table."""
-    from tests.test_search import states
-
     from mjx_skills.envs.baxter import LAYOUT, OBS_OBJECT
     from mjx_skills.envs.two_objects import _CUBE_1
     from mjx_skills.skills.library import consistent
+    from tests.fakes import states
 
     in_hand, _ = states(n, held=True)
     table, _ = states(n, held=False)
@@ -199,11 +198,10 @@ def _held_scene(two, n: int, held: int) -> jax.Array:
 
 def _free_scene(two, n: int) -> jax.Array:
     """(n, 40) observations: both cubes on the table 10 cm apart in y, the gripper open."""
-    from tests.test_search import states
-
     from mjx_skills.envs.baxter import LAYOUT, OBS_OBJECT
     from mjx_skills.envs.two_objects import _CUBE_1
     from mjx_skills.skills.library import consistent
+    from tests.fakes import states
 
     free, _ = states(n, held=False)
     other = consistent(LAYOUT, free.at[:, OBS_OBJECT].add(jnp.array([0.0, 0.1, 0.0])))
@@ -217,11 +215,10 @@ def test_the_search_never_plans_a_transfer_of_the_cube_not_held(held, held_at_go
     cube not yet at its goal it plans for that cube only (transfers: it finishes what it
     holds); once the held cube is at its goal it plans for the other cube only, and never
     a transfer of it."""
-    from tests.test_search import EnvState, KnownLibrary
-
     from mjx_skills.agents import ddpg
     from mjx_skills.config import DDPGConfig, SearchConfig
     from mjx_skills.methods import ddpg_her_sl
+    from tests.fakes import EnvState, KnownLibrary
 
     two, n = make("pick_move_two"), 512
     obs = _held_scene(two, n, held)
@@ -253,11 +250,10 @@ def test_with_goal_clearance_the_search_transfers_the_held_cube_beside_the_one_a
     transfer by the distance of its end to the goal, so it aims the held cube onto the other
     one (within the 3 cm goal noise); with --search.goal-clearance 0.05 it aims it 5 cm
     from it (`clear_goals`), where both fit."""
-    from tests.test_search import EnvState, KnownLibrary
-
     from mjx_skills.agents import ddpg
     from mjx_skills.config import DDPGConfig, SearchConfig
     from mjx_skills.methods import ddpg_her_sl
+    from tests.fakes import EnvState, KnownLibrary
 
     two, n = make("two_in_container"), 256
     obs = _held_scene(two, n, held)
@@ -310,11 +306,9 @@ def test_the_fast_methods_proposals_transfer_only_the_cube_held(held):
     cube's goal: with a cube held short of its goal, only its transfer may be taken (none on
     the other cube's view), aiming at its own part of the 6-D goal; once it is at its goal
     the other cube's skills may start (they let it go); with none held, no transfer."""
-    from tests.test_fast import EncodingLibrary
-    from tests.test_search import NAMES
-
     from mjx_skills.config import SearchConfig
     from mjx_skills.methods import ddpg_her_sl_fast as fast
+    from tests.fakes import NAMES, EncodingLibrary
 
     two, n, per_cube = make("pick_move_two"), 64, 6
     obs = _held_scene(two, n, held)
@@ -352,11 +346,10 @@ def test_in_order_the_explorers_work_on_the_first_cube_not_at_its_goal():
     held short of its goal -> that cube (whatever its index); without in_order, any cube but
     for a held one. DDPG+HER+SL+Fast's proposals follow it: with both cubes on the table and
     --search.in-order, only cube 0's are allowed, without it both cubes'."""
-    from tests.test_fast import EncodingLibrary
-
     from mjx_skills.config import SearchConfig
     from mjx_skills.envs.two_objects import workable
     from mjx_skills.methods import ddpg_her_sl_fast as fast
+    from tests.fakes import EncodingLibrary
 
     held = jnp.array([[0, 0], [0, 1], [1, 0], [0, 0], [1, 0]], bool)
     at_goal = jnp.array([[0, 0], [0, 0], [0, 0], [1, 0], [1, 0]], bool)
@@ -380,12 +373,11 @@ def test_mpas_chooses_cube_and_skill_and_transfers_only_the_cube_held(held):
     at random over many envs it picks both cubes and transfer, transfer only for the held
     cube; the chosen skill's policy sees the chosen cube's view, and a grasp's goal is named
     on that view (above that cube)."""
-    from tests.test_search import NAMES, EnvState, KnownLibrary
-
     from mjx_skills.agents import mpdqn
     from mjx_skills.config import DDPGConfig, PASConfig
     from mjx_skills.envs.baxter import OBS_OBJECT
     from mjx_skills.methods import pas
+    from tests.fakes import NAMES, EnvState, KnownLibrary
 
     class ViewLibrary(KnownLibrary):
         """Its policies say which skill acts and where the cube of their view is."""

@@ -3,7 +3,6 @@ library's proposals (`methods/ddpg_her_sl_fast.py`)."""
 
 from __future__ import annotations
 
-import dataclasses
 import types
 
 import jax
@@ -16,19 +15,11 @@ from mjx_skills.config import DDPGConfig, SearchConfig, TrainConfig
 from mjx_skills.core.learner import Progress
 from mjx_skills.envs import make
 from mjx_skills.methods import ddpg_her_sl_fast as fast
-from tests.fakes import NAMES, KnownLibrary, states
+from tests.fakes import NAMES, EncodingLibrary, states
 
 CONFIG = DDPGConfig(hidden=(16,))
 ONE_CUBE = make("pick_move")
 STATE = types.SimpleNamespace(obs=jnp.zeros((2, 25)), desired_goal=jnp.zeros((2, 3)))
-
-
-@dataclasses.dataclass(frozen=True)
-class EncodingLibrary(KnownLibrary):
-    """A library whose skill policies say who they are: action = (skill / 10, goal)."""
-
-    def policy_action(self, skill, obs, goal):
-        return jnp.concatenate([skill[:, None] / 10.0, goal], axis=-1)
 
 
 @pytest.mark.parametrize("held", [False, True])
