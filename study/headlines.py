@@ -118,17 +118,18 @@ def report(exp: Experiment, store: Path = cells.STORE) -> list[str]:
 def _widths(ours, base, at, last, n: int) -> str:
     """How wide the IQM intervals are with `n` seeds (as printed, 2 decimals), and (with the
     baseline in) the matched baseline's last-5 IQM beside the headline's."""
-    width = lambda v: round(stats.iqm_interval(v)[2], 2) - round(stats.iqm_interval(v)[1], 2)  # noqa: E731
+    at_ours, last_ours = stats.iqm_interval(at(ours)), stats.iqm_interval(last(ours))
+    width = lambda i: round(i[2], 2) - round(i[1], 2)  # noqa: E731
     text = (
-        f"With {n} seeds the IQM intervals are {width(at(ours)):.2f} (at the target's epoch) "
-        f"and {width(last(ours)):.2f} (last 5) wide"
+        f"With {n} seeds the IQM intervals are {width(at_ours):.2f} (at the target's epoch) "
+        f"and {width(last_ours):.2f} (last 5) wide"
     )
     if base is None:
         return text + "."
     kept = stats.iqm_interval(last(base))[0]
     return (
         text + f"; without the library's part, the same learner's last-5 IQM is {kept:.2f} "
-        f"against the headline's {stats.iqm_interval(last(ours))[0]:.2f}."
+        f"against the headline's {last_ours[0]:.2f}."
     )
 
 

@@ -180,11 +180,11 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     directory = in_checkout(chosen.library_dir)
     manifest = directory / "manifest.json"
     default_robot = next(iter(SKILLS.values())).env.robot_name  # build_library's default
-    held = read_json(manifest) if manifest.exists() else None
-    built_for = library_robot(held) if held else default_robot
+    built = read_json(manifest) if manifest.exists() else {}
+    built_for = library_robot(built) if built else default_robot
     if built_for == robot:  # the right robot: does it hold the skills the name needs?
-        models = (held or {}).get("models")  # a manifest without them (a fake) says nothing
-        lacking = [n for n in skills if models is not None and n not in models]
+        models = built.get("models")  # a manifest without them (a fake) says nothing
+        lacking = [n for n in skills if n not in models] if models is not None else []
         if lacking:
             raise ValueError(
                 f"--{group}.library {chosen.library} needs the skills {', '.join(skills)}; the "
@@ -194,8 +194,8 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
             )
         return
     flag = f"--{group}.library-dir"
-    built = "is built" if manifest.exists() else "would be built (none there yet)"
-    said = f"the skill library {built} for the {built_for.capitalize()} robot ({directory})"
+    state = "is built" if manifest.exists() else "would be built (none there yet)"
+    said = f"the skill library {state} for the {built_for.capitalize()} robot ({directory})"
     if robot in robots_with_skills():
         raise ValueError(
             f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run with "

@@ -166,8 +166,9 @@ def make_behaviour(
 
 
 def _stopped(lib: SkillLibrary, skill, obs, goal, drop_distance: float) -> jax.Array:
-    """A chosen skill stops at its goal; transfer (a skill that carries the object) also once the cube is `drop_distance` away
-    from the gripper. (The library's `terminated` stops transfer as soon as the grasp
+    """A chosen skill stops at its goal; transfer (a skill that carries the object) also
+    once the cube is `drop_distance` away from the gripper. (The library's `terminated`
+    stops transfer as soon as the grasp
     predicate fails, which a carried cube swinging in the fingers trips for a step or two:
     meta steps of 1-3 steps that never carried the cube to the chosen goal.)"""
     dropped = jnp.linalg.norm(obs[..., lib.layout["rel"]], axis=-1) > drop_distance

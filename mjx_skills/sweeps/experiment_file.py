@@ -84,9 +84,9 @@ def dropped(base: dict[str, Any], unset: Any, path: Path) -> dict[str, Any]:
     ValueError naming the file for a key `base` does not have."""
     if not isinstance(unset, list) or not all(isinstance(k, str) and k for k in unset):
         raise ValueError(f'{path}: unset must be a list of dotted keys, e.g. ["train.envs"]')
-    out = merged({}, base)  # a copy of every table
     if len(set(unset)) != len(unset):
         raise ValueError(f"{path}: unset names a key twice: {unset}")
+    out = merged({}, base)  # a copy of every table
     for dotted in unset:
         *tables, key = dotted.split(".")
         table = out
