@@ -22,7 +22,7 @@ from pathlib import Path
 
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import write_text_atomic
-from study import faster, fetch, headlines, two_cubes
+from study import faster, fetch, headlines, rebuild, two_cubes
 from study.claims import FAILS, LABEL, LEARNS, THESIS_METHODS, ci, claims
 from study.figures import figure, profiles
 from study.results import EXPERIMENTS, Results
@@ -85,6 +85,10 @@ def render(r: Results, draw: bool = True) -> str:
         "## Table 5.1: the skill library's models and memories",
         "",
         *table5_1(),
+        "",
+        "### The library rebuilt from a clean commit",
+        "",
+        *rebuild.section(),
     ]
     lines += ["", "## The Fetch tasks (issue #45, in progress)", ""]
     lines += fetch.section(FIGURES / "fetch.png", draw)
