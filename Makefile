@@ -7,6 +7,7 @@ TASK    ?= pick_move
 METHOD  ?=
 EPOCHS  ?= 100
 LIBRARY := experiments/skill_library
+ROBOT   ?= baxter
 SEEDS   ?= 1
 OUT     ?= runs
 ARGS    ?=
@@ -28,8 +29,9 @@ train: setup
 	$(BIN)/python -m mjx_skills.train $(METHOD) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
 
 # Train transit / grasp / transfer, collect their data, fit their models (about 10 min).
+# ROBOT=fetch builds the same skills on Fetch into experiments/skill_library_fetch.
 skills: setup
-	$(BIN)/python -m mjx_skills.build_library --out $(LIBRARY) $(ARGS)
+	$(BIN)/python -m mjx_skills.build_library --robot $(ROBOT) $(ARGS)
 
 # The thesis's experiments: make sweep ARGS="--experiment fig6_3" (see --list).
 sweep: setup

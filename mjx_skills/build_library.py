@@ -41,8 +41,9 @@ from mjx_skills.training.runner import RunArgs, train_and_keep
 @dataclasses.dataclass(frozen=True)
 class SkillsArgs:
     config: Annotated[LibraryConfig, tyro.conf.OmitArgPrefixes] = LibraryConfig()
-    out: str = str(library.DEFAULT_DIR)
-    """Directory of the library (must not exist yet, unless with --table)."""
+    out: str | None = None
+    """Directory of the library (must not exist yet, unless with --table; default:
+    experiments/skill_library, experiments/skill_library_ROBOT for another --robot)."""
     table: bool = False
     """Only write Table 5.1 (experiments/results/table_5_1.csv) from the library at --out."""
     progress: bool = True
@@ -56,6 +57,10 @@ class SkillsArgs:
     skills: tuple[str, ...] = ()
     """The skills to build, in order (default: every registered skill of --robot, yours
     included when --import registers one)."""
+
+    def directory(self) -> Path:
+        """--out, or the robot's default library directory (`library.default_dir`)."""
+        return Path(self.out) if self.out else library.default_dir(self.robot)
 
     def names(self) -> tuple[str, ...]:
         """The skills this build trains; ValueError naming the valid ones."""
@@ -250,7 +255,7 @@ def _assemble(names, agents, dyn, clf, in_norm, d_norm, dims, x, s_T, success, n
 def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
     """Every phase -> the library directory. `work`: where the skills' training runs live
     (default beside the library); libraries sharing it share their trained skills."""
-    out = check_writable_path(args.out)
+    out = check_writable_path(args.directory())
     if args.config.seed + 10_000 >= SEED_LIMIT:  # skill_success's keys: 10_000 + seed
         raise ValueError("invalid config value for 'seed': must be < 2**32 - 10000 (keys)")
     if out.exists():
@@ -322,7 +327,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         args = tyro.cli(SkillsArgs, args=argv, description=__doc__)
         if args.table:
-            print(f"wrote {write_table(Path(args.out))}")
+            print(f"wrote {write_table(args.directory())}")
             return
         out = build(args, work=args.work)
         print(json.dumps(library.read_manifest(out)["models"], indent=1))

@@ -48,6 +48,15 @@ FINGERS = ("robot0:r_gripper_finger_joint", "robot0:l_gripper_finger_joint")
 """The gripper state's order: the last two `robot*` joints by joint id (`robot_get_obs`)."""
 GRIP, HAND, OBJECT = "robot0:grip", "robot0:gripper_link", "object0"
 """The grip site, the body welded to the mocap, the object's site."""
+PLACE_STEPS = 10
+"""Env steps the mocap takes to carry the grip to a chosen start (`FetchRobot.place`): from
+the setup's pose it reaches any point of the skills' box within about 1 cm."""
+CLOSE_STEPS = 4
+"""Env steps the fingers then take to close on a held object (or stay open); the object is
+held in place, at rest, before each of them but the last."""
+PARKED_OBJECT = (1.3, 0.75, 3.0, 1.0, 0.0, 0.0, 0.0)
+"""Where the object waits (qpos: position, quaternion), far above every contact, while
+`place` moves the arm."""
 WORKSPACE_HEIGHT = 0.5
 """The workspace reaches this far (m) above the table's top: the goals in the air, at most
 45 cm above a block resting on it (`fetch_tasks.AIR_MAX`), lie within."""
@@ -223,8 +232,12 @@ class FetchRobot:
             float(data.site_xpos[model.site(OBJECT).id][2]) if self.has_object else 0.0
         )
         self.start_qpos, self.start_qvel = data.qpos.copy(), data.qvel.copy()
+        # The gripper body's pose at the setup's end: `place` keeps its orientation.
+        self.hand_from_grip = data.xpos[model.body(HAND).id] - self.initial_gripper_xpos
+        self.start_hand_quat = data.xquat[model.body(HAND).id].copy()
         if self.has_object:
             self.object_qpos = int(model.joint("object0:joint").qposadr[0])
+            self.object_dof = int(model.joint("object0:joint").dofadr[0])
 
     # ------------------------------------------------------------------ state
     def sensors(self, sensordata: jax.Array) -> dict[str, jax.Array]:
@@ -243,6 +256,62 @@ class FetchRobot:
         physics = self.backend.init(qpos, jnp.asarray(self.start_qvel, jnp.float32))
         control = jnp.concatenate([jnp.zeros(self.model.nu), jnp.asarray(self.reset_mocap)])
         return physics.replace(sensordata=self.backend.sense(physics.data, control))
+
+    def place(self, grip: jax.Array, object_pos: jax.Array, held: jax.Array) -> PhysicsState:
+        """A start with the grip at `grip` ((3,), m) and the object at `object_pos` ((3,) m,
+        its centre) or, where `held` (bool), closed in the fingers at the grip: the skills'
+        starts (`envs.fetch_skills`). From the setup's end, with the object parked
+        (PARKED_OBJECT), the mocap carries the gripper body (its orientation kept) to where
+        the grip lies at `grip`, fingers open, for PLACE_STEPS env steps; then the object is
+        put in place at rest, and the fingers close on it (`held`: it is put back in
+        place before each step but the last) or stay open for CLOSE_STEPS more. ValueError on a scene without an object."""
+        if not self.has_object:
+            raise ValueError(f"scene {self.scene!r} has no object to place")
+        obj = slice(self.object_qpos, self.object_qpos + 7)
+        qpos = jnp.asarray(self.start_qpos, jnp.float32).at[obj].set(jnp.asarray(PARKED_OBJECT))
+        physics = self.backend.init(qpos, jnp.zeros(self.model.nv, jnp.float32))
+        mocap = jnp.concatenate(
+            [
+                jnp.asarray(grip, jnp.float32) + jnp.asarray(self.hand_from_grip, jnp.float32),
+                jnp.asarray(self.start_hand_quat + np.asarray(MOCAP_QUAT_OFFSET), jnp.float32),
+            ]
+        )
+        physics = self._hold(physics, mocap, jnp.float32(1.0), PLACE_STEPS)
+        grip_now = self.sensors(self._sensed(physics, mocap))["grip_pos"]
+        at = jnp.concatenate(
+            [
+                jnp.where(held, grip_now, jnp.asarray(object_pos, jnp.float32)),
+                jnp.array([1.0, 0.0, 0.0, 0.0]),
+            ]
+        )
+        gripper = jnp.where(held, -1.0, 1.0)
+        for step in range(CLOSE_STEPS):
+            # The block is put (back) in place at rest before each step but the last, so
+            # that a held one cannot fall while the fingers close on it.
+            if step == 0 or step < CLOSE_STEPS - 1:
+                pinned = self.backend.qpos(physics).at[obj].set(at)
+                dofs = slice(self.object_dof, self.object_dof + 6)
+                qpos = jnp.where((step == 0) | held, pinned, self.backend.qpos(physics))
+                qvel = self.backend.qvel(physics)
+                qvel = jnp.where((step == 0) | held, qvel.at[dofs].set(0.0), qvel)
+                physics = self.backend.set_qpos_qvel(physics, qpos, qvel)
+            physics = self._hold(physics, mocap, gripper, 1)
+        return physics.replace(sensordata=self._sensed(physics, mocap))
+
+    def _finger_ctrl(self, physics: PhysicsState, gripper: jax.Array) -> jax.Array:
+        """The actuators' controls for gripper command `gripper` (as `controls` sets them)."""
+        joints = self.backend.qpos(physics)[self.actuator_qpos]
+        return jnp.where(self.relative_ctrl, joints, 0.0) + gripper
+
+    def _hold(self, physics, mocap: jax.Array, gripper: jax.Array, steps: int) -> PhysicsState:
+        """`steps` env steps with the mocap held at `mocap` (position, quaternion)."""
+        path = jnp.broadcast_to(mocap, (steps * N_SUBSTEPS, mocap.shape[0]))
+        return self.backend.step(physics, self._finger_ctrl(physics, gripper), path)
+
+    def _sensed(self, physics: PhysicsState, mocap: jax.Array) -> jax.Array:
+        """The sensors of the state vector itself (not the last substep's start)."""
+        control = jnp.concatenate([self._finger_ctrl(physics, jnp.float32(0.0)), mocap])
+        return self.backend.sense(physics.data, control)
 
     def controls(self, physics: PhysicsState, action: jax.Array) -> jax.Array:
         """action (4,) in [-1, 1] -> one substep's control vector (ctrl, mocap position,

@@ -84,6 +84,19 @@ def pick_and_place(obs: jnp.ndarray, goal: jnp.ndarray) -> jnp.ndarray:
     return first(cases, toward(grip, block + jnp.array([0.0, 0.0, CLEARANCE]), OPEN))
 
 
-SCRIPTED = {"fetch_reach": reach, "fetch_push": push, "fetch_pick_and_place": pick_and_place}
+def transit(obs: jnp.ndarray, goal: jnp.ndarray) -> jnp.ndarray:
+    """The empty gripper, open, straight to the goal."""
+    return toward(obs[..., 0:3], goal, OPEN)
+
+
+SCRIPTED = {
+    "fetch_reach": reach,
+    "fetch_push": push,
+    "fetch_pick_and_place": pick_and_place,
+    "fetch_transit": transit,
+    "fetch_grasp": pick_and_place,  # its goal: the block lifted where it lies
+    "fetch_transfer": pick_and_place,  # held from the start: straight to the goal, closed
+}
 """Registry name -> scripted controller (FetchSlide has none: a shot that stops a puck
-on a low-friction table within 5 cm is no simple state machine)."""
+on a low-friction table within 5 cm is no simple state machine). The Fetch skills
+(`envs/fetch_skills.py`) are pick and place's parts."""

@@ -168,7 +168,10 @@ class FetchTask(RobotTask):
         """The episode's start with the object at `object_xy` (None without an object) and
         the desired goal `goal`: what `reset` draws, or any given start (the parity tests
         start from gymnasium-robotics' draws)."""
-        physics = self.robot.start(object_xy)
+        return self.state_from(self.robot.start(object_xy), goal)
+
+    def state_from(self, physics, goal: jax.Array) -> State:
+        """The episode's first State from its start physics and desired goal (3,)."""
         zero = jnp.zeros((), jnp.float32)
         metrics = {
             "success": zero,

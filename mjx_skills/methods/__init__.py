@@ -167,8 +167,14 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     from mjx_skills.core.files import read_json
     from mjx_skills.core.paths import in_checkout
     from mjx_skills.envs.registry import robot_of
-    from mjx_skills.skills.library import library_robot
-    from mjx_skills.skills.registry import SKILLS, library_skills, robots_with_skills, skills_of
+    from mjx_skills.skills.library import default_dir, library_robot
+    from mjx_skills.skills.registry import (
+        LIBRARIES,
+        SKILLS,
+        library_skills,
+        robots_with_skills,
+        skills_of,
+    )
 
     spec = get(method)
     group = spec.library_group
@@ -182,6 +188,14 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     default_robot = next(iter(SKILLS.values())).env.robot_name  # build_library's default
     built = read_json(manifest) if manifest.exists() else {}
     built_for = library_robot(built) if built else default_robot
+    named_for = SKILLS[skills[0]].env.robot_name
+    if built_for == robot and named_for != robot:
+        names = [n for n, sk in LIBRARIES.items() if SKILLS[sk[0]].env.robot_name == robot]
+        raise ValueError(
+            f"--{group}.library {chosen.library} names {named_for.capitalize()} skills; "
+            f"{task} is a {robot.capitalize()} task: pass --{group}.library "
+            f"{' or '.join(names)}"
+        )
     if built_for == robot:  # the right robot: does it hold the skills the name needs?
         models = built.get("models")  # a manifest without them (a fake) says nothing
         lacking = [n for n in skills if n not in models] if models is not None else []
@@ -197,10 +211,12 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     state = "is built" if manifest.exists() else "would be built (none there yet)"
     said = f"the skill library {state} for the {built_for.capitalize()} robot ({directory})"
     if robot in robots_with_skills():
+        names = [n for n, sk in LIBRARIES.items() if SKILLS[sk[0]].env.robot_name == robot]
         raise ValueError(
             f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run with "
-            f"it: build a {robot.capitalize()} library with `python -m mjx_skills.build_library "
-            f"--robot {robot} --out DIR` and pass {flag} DIR"
+            f"it: pass --{group}.library {' or '.join(names)} (the {robot.capitalize()} "
+            f"skills) and {flag} {default_dir(robot)}, which `python -m "
+            f"mjx_skills.build_library --robot {robot}` builds (`make skills ROBOT={robot}`)"
         )
     flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)
     raise ValueError(

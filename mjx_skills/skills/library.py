@@ -54,6 +54,19 @@ UNRECORDED_ROBOT = "baxter"
 """The robot of a library whose manifest records none: built before robots were recorded,
 when Baxter was the only robot with skills (`library_robot`)."""
 DEFAULT_DIR = Path("experiments") / "skill_library"
+"""The default library: Baxter's (the thesis's robot)."""
+
+
+def default_dir(robot: str) -> Path:
+    """Where `build_library --robot ROBOT` writes by default: DEFAULT_DIR for Baxter,
+    experiments/skill_library_ROBOT for any other robot."""
+    return (
+        DEFAULT_DIR
+        if robot == UNRECORDED_ROBOT
+        else DEFAULT_DIR.with_name(f"{DEFAULT_DIR.name}_{robot}")
+    )
+
+
 log = logging.getLogger(__name__)
 
 

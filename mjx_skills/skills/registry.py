@@ -141,7 +141,15 @@ _BUILT_IN = (
         thesis_cm=(4.6, 2.0),
     ),
 )
-SKILLS: dict[str, Skill] = {skill.name: skill for skill in _BUILT_IN}
+_FETCH = tuple(
+    dataclasses.replace(
+        skill, name=f"fetch_{skill.name}", env=envs.ENVS[f"fetch_{skill.name}"], thesis_cm=None
+    )
+    for skill in _BUILT_IN
+)
+"""The same three skills on Fetch (`envs/fetch_skills.py`): the same proposers, starts and
+budgets; the thesis has no Table 5.1 figures for them."""
+SKILLS: dict[str, Skill] = {skill.name: skill for skill in (*_BUILT_IN, *_FETCH)}
 """Skill name -> its definition, in the order `build_library` builds them."""
 LIBRARIES: dict[str, tuple[str, ...]] = dict(
     zip(
@@ -150,8 +158,9 @@ LIBRARIES: dict[str, tuple[str, ...]] = dict(
         strict=True,
     )
 )
-"""Library name -> its skills: the thesis's (Fig. 6.4; SL1 the full one) and yours
-(`register_library`)."""
+LIBRARIES["SL1_fetch"] = tuple(skill.name for skill in _FETCH)
+"""Library name -> its skills: the thesis's (Fig. 6.4; SL1 the full one), SL1's skills on
+Fetch (SL1_fetch) and yours (`register_library`)."""
 
 
 def get(name: str) -> Skill:

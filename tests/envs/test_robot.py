@@ -119,8 +119,8 @@ def test_a_library_method_on_a_fetch_task_is_refused_before_any_run_directory(tm
         said = str(refused.value)
         assert "library is built for the Baxter robot (experiments/skill_library)" in said
         assert "fetch_push is a Fetch task" in said
-        assert "no command builds a Fetch skill library yet" in said
-        assert "issue #45" in said and "ddpg_her" in said
+        assert f"pass --{method[:3] if method == 'pas' else 'search'}.library SL1_fetch" in said
+        assert "experiments/skill_library_fetch" in said and "--robot fetch" in said
     assert not out.exists()
     methods.check_task("ddpg_her", "fetch_push")  # the flat methods run it
 
@@ -143,11 +143,19 @@ def test_a_baxter_task_with_another_robots_library_is_refused_with_the_build_com
         train_run(args)
     said = str(refused.value)
     assert f"built for the Fetch robot ({lib})" in said and "pick_move is a Baxter task" in said
-    assert (
-        "`python -m mjx_skills.build_library --robot baxter --out DIR` and pass --search.library-dir"
-        in said
-    )
+    assert "pass --search.library SL1 or SL2 or SL3 (the Baxter skills)" in said
+    assert "--search.library-dir experiments/skill_library, which `python -m" in said
     assert not out.exists()
+
+
+def test_a_library_named_for_another_robot_is_refused(tmp_path):
+    """The Fetch library at --search.library-dir but the Baxter skills named (SL1)."""
+    lib = _fake_library(tmp_path / "fetch_lib", "fetch")
+    said = "SL1 names Baxter skills; fetch_pick_and_place is a Fetch task: pass --search.library"
+    with pytest.raises(ValueError, match=said + " SL1_fetch"):
+        methods.check_library_robot(
+            "ddpg_her_sl", "fetch_pick_and_place", {"search": SearchConfig(library_dir=str(lib))}
+        )
 
 
 def test_the_build_command_named_takes_out(tmp_path):

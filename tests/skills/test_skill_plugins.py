@@ -50,7 +50,9 @@ def test_bad_registrations_are_named(push):
     with pytest.raises(ValueError, match="propose must be callable"):
         registry.register_skill(dataclasses.replace(skill, propose=None))
     with pytest.raises(
-        ValueError, match="unknown skill 'pull'; valid: transit, grasp, transfer, push"
+        ValueError,
+        match="unknown skill 'pull'; valid: transit, grasp, transfer, fetch_transit, "
+        "fetch_grasp, fetch_transfer, push",
     ):
         registry.register_library("SL_pull", ("transit", "pull"))
     with pytest.raises(ValueError, match="each skill once"):
@@ -77,16 +79,22 @@ def test_bad_registrations_are_named(push):
         registry.register_library("SL_mixed", ("push", "fetch_shove"))
     assert "shove" not in registry.SKILLS and "shove" not in envs.ENVS  # nothing half-registered
     assert registry.library_skills("SL_push") == FOUR
-    assert registry.skills_of("baxter") == FOUR and registry.skills_of("fetch") == ("fetch_shove",)
+    assert registry.skills_of("baxter") == FOUR
+    assert registry.skills_of("fetch") == (*registry.LIBRARIES["SL1_fetch"], "fetch_shove")
 
 
-def test_build_library_names_the_skills_it_can_build(push):
+def test_build_library_names_the_skills_it_can_build(push, monkeypatch):
     assert build_library.SkillsArgs().names() == FOUR
     assert build_library.SkillsArgs(skills=("push", "grasp")).names() == ("push", "grasp")
     with pytest.raises(ValueError, match="from the baxter skills transit, grasp, transfer, push"):
         build_library.SkillsArgs(skills=("push", "fly")).names()
-    with pytest.raises(ValueError, match="--robot fetch: no skill is registered for it"):
-        build_library.SkillsArgs(robot="fetch").names()
+    fetch = build_library.SkillsArgs(robot="fetch")
+    assert fetch.names() == ("fetch_transit", "fetch_grasp", "fetch_transfer")
+    assert fetch.directory() == Path("experiments/skill_library_fetch")
+    assert build_library.SkillsArgs().directory() == Path("experiments/skill_library")
+    monkeypatch.setitem(envs.ROBOTS, "ur5", object)
+    with pytest.raises(ValueError, match="--robot ur5: no skill is registered for it"):
+        build_library.SkillsArgs(robot="ur5").names()
 
 
 def _states(n: int) -> tuple[jax.Array, jax.Array]:
