@@ -1,10 +1,13 @@
 """The Fetch section of the report (issue #45, so far): every stored cell of an experiment on
 a Fetch task, with env steps to 0.9 and its last-5 success, beside the published DDPG+HER
-figures (`study/published/fetch_her.toml`, read from their sources' plots), and a figure of
-the curves over env steps with the published points marked."""
+figures (`study/published/fetch_her.toml`, read from their sources' plots) and what a user
+would run instead (Stable-Baselines3 on gymnasium-robotics' own envs,
+`benchmarks/results/peer_sb3_fetch.jsonl`), and a figure of the curves over env steps with
+the published points marked and the peers' curves dashed."""
 
 from __future__ import annotations
 
+import json
 import tomllib
 from pathlib import Path
 
@@ -17,6 +20,8 @@ from mjx_skills.sweeps.experiments import load_experiment
 from study.sections import table
 
 PUBLISHED = Path(__file__).parent / "published" / "fetch_her.toml"
+PEERS = Path(__file__).parents[1] / "benchmarks" / "results" / "peer_sb3_fetch.jsonl"
+"""Stable-Baselines3 on gymnasium-robotics' own envs (benchmarks/peer_sb3_fetch.py)."""
 ENVS = {
     "fetch_push": "FetchPush",
     "fetch_pick_and_place": "FetchPickAndPlace",
@@ -51,10 +56,60 @@ def stored_cells() -> list[tuple[str, str, int, np.ndarray]]:
     return out
 
 
+def peer_cells(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray]]:
+    """(label, task, env steps per epoch, (seeds, epochs) success) of each group of rows of
+    the same settings in benchmarks/results/peer_sb3_fetch.jsonl (a seed's row: its curve)."""
+    if not path.exists():
+        return []
+    groups: dict[tuple, list[dict]] = {}
+    for line in path.read_text().splitlines():
+        if line.strip():
+            row = json.loads(line)
+            settings = (row["task"], row["algo"], tuple(row["net_arch"]), row["batch_size"])
+            groups.setdefault((*settings, row["steps"]), []).append(row)
+    out = []
+    for (task, algo, net, batch, _), rows in groups.items():
+        curves = [[p["eval_success"] for p in r["curve"]] for r in sorted(rows, key=_seed)]
+        per_epoch = rows[0]["curve"][0]["env_steps"]
+        name = algo.removeprefix("sb3_").removesuffix("_her").upper()
+        label = f"SB3 {name}+HER ({len(net)} x {net[0]}, batch {batch})"
+        out.append((label, task, per_epoch, np.asarray(curves, float)))
+    return out
+
+
+def _seed(row: dict) -> int:
+    return row["seed"]
+
+
+def peer_comparison(ours, peers) -> list[str]:
+    """For each peer group, its last-5 mean [95 % interval] at the end of its budget beside
+    each of our cells on that task over the same epochs (the same env steps)."""
+    out = []
+    for label, task, per, theirs in peers:
+        epochs = theirs.shape[1]
+        mine = [(n, s) for n, t, p, s in ours if t == task and p == per and s.shape[1] >= epochs]
+        if not mine:
+            continue
+        at = "{:.2f} [{:.2f}, {:.2f}]"
+        text = "; ".join(
+            f"{n} {at.format(*stats.summarize(s[:, :epochs]).last)} ({len(s)} seeds)"
+            for n, s in mine
+        )
+        out.append(
+            f"- {ENVS[task]}, the last 5 epochs up to {epochs * per:,} env steps: {label} "
+            f"{at.format(*stats.summarize(theirs).last)} ({len(theirs)} seeds); ours: {text}."
+        )
+    return out
+
+
 def _reach(scores: np.ndarray, per_epoch: int) -> str:
     hit = stats.first_reaching(scores.mean(axis=0), LEVEL)
     budget = scores.shape[1] * per_epoch
     return f"never (budget {budget:,})" if hit is None else f"{hit * per_epoch:,}"
+
+
+def _last(scores: np.ndarray) -> str:
+    return "{:.2f} [{:.2f}, {:.2f}]".format(*stats.summarize(scores).last)
 
 
 def section(figure_path: Path, draw: bool = True) -> list[str]:
@@ -66,7 +121,7 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
             name,
             f"{len(s)}",
             _reach(s, per),
-            "{:.2f} [{:.2f}, {:.2f}]".format(*stats.summarize(s).last),
+            _last(s),
         ]
         for name, task, per, s in ours
     ]
@@ -92,8 +147,27 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
         "",
         *table(["env", "method (source)", "setting", f"env steps to {LEVEL}"], theirs),
     ]
+    peers = peer_cells()
+    if peers:
+        lines += [
+            "",
+            "What a user would run instead: Stable-Baselines3 with HER on gymnasium-robotics' "
+            "own envs (`benchmarks/peer_sb3_fetch.py`: rl-zoo3's FetchPush recipe with its "
+            "networks and batch sized down to these 2 cores; the settings are in each row "
+            "of `benchmarks/results/peer_sb3_fetch.jsonl`), evaluated as ours.",
+            "",
+            *table(
+                ["task", "run", "seeds", f"env steps to {LEVEL}", "last 5 epochs"],
+                [
+                    [ENVS[task], label, f"{len(s)}", _reach(s, per), _last(s)]
+                    for label, task, per, s in peers
+                ],
+            ),
+            "",
+            *peer_comparison(ours, peers),
+        ]
     lines += shortfalls(ours)
-    if ours and figure(ours, figure_path, draw) is not None:
+    if ours and figure([*ours, *peers], figure_path, draw) is not None:
         lines += ["", "![The Fetch runs over env steps](figures/fetch.png)"]
     return lines
 
@@ -151,7 +225,8 @@ def figure(ours, out: Path, draw: bool = True) -> Path | None:
             if cell_task != task:
                 continue
             x = np.arange(1, s.shape[1] + 1) * per
-            ax.plot(x, s.mean(axis=0), lw=1.3, color=f"C{i}", label=name)
+            style = "--" if name.startswith("SB3") else "-"  # a peer's run (`peer_cells`)
+            ax.plot(x, s.mean(axis=0), style, lw=1.3, color=f"C{i}", label=name)
             ax.fill_between(x, s.min(axis=0), s.max(axis=0), color=f"C{i}", alpha=0.15, lw=0)
         for f in published():
             if f["env"].startswith(ENVS[task] + "-"):

@@ -159,7 +159,7 @@ def check_task(
 def check_library_robot(method: str, task: str, options: dict[str, Any] | None = None) -> None:
     """ValueError if `method` reads a skill library built for another robot than `task`'s
     (the library its option group's `library_dir` names: its manifest's robot; a library
-    not built yet would be `build_library`'s, of the robot of the skill envs). The message
+    not built yet would be of the robot of the skills `library` names). The message
     names the library's robot and how to build one for the task's robot, or says that no
     command builds one yet. Also a ValueError for an unregistered library name, or a built
     library without a skill the named library needs. Reads only the manifest: nothing is
@@ -185,10 +185,9 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     skills = library_skills(chosen.library)  # ValueError naming the registered libraries
     directory = in_checkout(chosen.library_dir)
     manifest = directory / "manifest.json"
-    default_robot = next(iter(SKILLS.values())).env.robot_name  # build_library's default
-    built = read_json(manifest) if manifest.exists() else {}
-    built_for = library_robot(built) if built else default_robot
     named_for = SKILLS[skills[0]].env.robot_name
+    built = read_json(manifest) if manifest.exists() else {}
+    built_for = library_robot(built) if built else named_for  # what would be built there
     if built_for == robot and named_for != robot:
         names = [n for n, sk in LIBRARIES.items() if SKILLS[sk[0]].env.robot_name == robot]
         raise ValueError(

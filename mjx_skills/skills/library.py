@@ -44,29 +44,15 @@ from mjx_skills.skills.provenance import (
 )
 from mjx_skills.skills.provenance import scene_files as scene_files  # re-exported
 from mjx_skills.skills.provenance import scenes_digest as scenes_digest  # re-exported
+from mjx_skills.skills.registry import DEFAULT_DIR as DEFAULT_DIR  # re-exported
 from mjx_skills.skills.registry import LIBRARIES as LIBRARIES  # re-exported
+from mjx_skills.skills.registry import UNRECORDED_ROBOT as UNRECORDED_ROBOT  # re-exported
+from mjx_skills.skills.registry import default_dir as default_dir  # re-exported
 from mjx_skills.skills.registry import get as get_skill
 from mjx_skills.skills.registry import library_skills as library_skills  # re-exported
 
 FORMAT = 1
 """Version of the on-disk layout; a library of another format is refused."""
-UNRECORDED_ROBOT = "baxter"
-"""The robot of a library whose manifest records none: built before robots were recorded,
-when Baxter was the only robot with skills (`library_robot`)."""
-DEFAULT_DIR = Path("experiments") / "skill_library"
-"""The default library: Baxter's (the thesis's robot)."""
-
-
-def default_dir(robot: str) -> Path:
-    """Where `build_library --robot ROBOT` writes by default: DEFAULT_DIR for Baxter,
-    experiments/skill_library_ROBOT for any other robot."""
-    return (
-        DEFAULT_DIR
-        if robot == UNRECORDED_ROBOT
-        else DEFAULT_DIR.with_name(f"{DEFAULT_DIR.name}_{robot}")
-    )
-
-
 log = logging.getLogger(__name__)
 
 

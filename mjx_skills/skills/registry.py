@@ -21,6 +21,7 @@ import dataclasses
 import hashlib
 import inspect
 from collections.abc import Callable
+from pathlib import Path
 from typing import Literal, NamedTuple
 
 import jax
@@ -161,6 +162,23 @@ LIBRARIES: dict[str, tuple[str, ...]] = dict(
 LIBRARIES["SL1_fetch"] = tuple(skill.name for skill in _FETCH)
 """Library name -> its skills: the thesis's (Fig. 6.4; SL1 the full one), SL1's skills on
 Fetch (SL1_fetch) and yours (`register_library`)."""
+
+
+UNRECORDED_ROBOT = "baxter"
+"""The robot of a library whose manifest records none: built before robots were recorded,
+when Baxter was the only robot with skills (`library_robot`)."""
+DEFAULT_DIR = Path("experiments") / "skill_library"
+"""The default library: Baxter's (the thesis's robot)."""
+
+
+def default_dir(robot: str) -> Path:
+    """Where `build_library --robot ROBOT` writes by default: DEFAULT_DIR for Baxter,
+    experiments/skill_library_ROBOT for any other robot."""
+    return (
+        DEFAULT_DIR
+        if robot == UNRECORDED_ROBOT
+        else DEFAULT_DIR.with_name(f"{DEFAULT_DIR.name}_{robot}")
+    )
 
 
 def get(name: str) -> Skill:

@@ -1,0 +1,49 @@
+"""The Fetch section's peer runs: Stable-Baselines3 on gymnasium-robotics' own envs
+(benchmarks/peer_sb3_fetch.py), grouped by settings and set beside our cells at the same
+env steps."""
+
+import json
+
+import numpy as np
+
+from study import fetch
+
+
+def _row(seed, curve, net=256, steps=2400):
+    return {
+        "task": "fetch_push",
+        "algo": "sb3_ddpg_her",
+        "seed": seed,
+        "steps": steps,
+        "net_arch": [net] * 3,
+        "batch_size": 256,
+        "curve": [
+            {"env_steps": 800 * (i + 1), "wall_s": i, "eval_success": v}
+            for i, v in enumerate(curve)
+        ],
+    }
+
+
+def test_peer_rows_of_the_same_settings_form_one_run_of_several_seeds(tmp_path):
+    path = tmp_path / "peers.jsonl"
+    rows = [_row(1, [0.1] * 8), _row(0, [0.0] * 8), _row(0, [0.5] * 8, net=64)]
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    (a, b) = fetch.peer_cells(path)
+    assert a[0] == "SB3 DDPG+HER (3 x 256, batch 256)" and a[1:3] == ("fetch_push", 800)
+    np.testing.assert_array_equal(a[3], [[0.0] * 8, [0.1] * 8])  # ordered by seed
+    assert b[0] == "SB3 DDPG+HER (3 x 64, batch 256)" and b[3].shape == (1, 8)
+    assert fetch.peer_cells(tmp_path / "none.jsonl") == []
+
+
+def test_a_peer_is_compared_with_our_cells_over_the_same_epochs():
+    theirs = np.full((2, 10), 0.5)
+    ours = np.zeros((3, 40))
+    ours[:, 5:10] = 0.2  # the same env steps as their last 5 epochs
+    ours[:, 10:] = 1.0  # later than their budget: not compared
+    (line,) = fetch.peer_comparison(
+        [("mine", "fetch_push", 800, ours), ("short", "fetch_push", 800, ours[:, :8])],
+        [("SB3 X", "fetch_push", 800, theirs)],
+    )
+    assert line.startswith("- FetchPush, the last 5 epochs up to 8,000 env steps: SB3 X 0.50")
+    assert "ours: mine 0.20 [0.20, 0.20] (3 seeds)." in line and "short" not in line
+    assert fetch.peer_comparison([], [("SB3 X", "fetch_push", 800, theirs)]) == []
