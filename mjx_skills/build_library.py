@@ -309,8 +309,19 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
             for n, e in zip(names, lib.envs, strict=True)
         },
         "fit_history": history,
+        "env_steps": {
+            "train": {n: _trained_env_steps(r) for n, r in runs.items()},
+            "collect": {n: int(d["steps"].sum()) for n, d in data.items()},
+        },
     }
     return library.save(lib, out, manifest, made_by)
+
+
+def _trained_env_steps(run_dir: Path) -> int:
+    """Env steps a skill's training took (its last logged epoch's count; evaluation and the
+    starts' placement not counted)."""
+    lines = (Path(run_dir) / "metrics.jsonl").read_text().splitlines()
+    return int(json.loads(lines[-1])["env_steps"])
 
 
 def _by_source(d: dict[str, np.ndarray], names: tuple[str, ...]) -> dict[str, float]:

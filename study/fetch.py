@@ -108,6 +108,47 @@ def _reach(scores: np.ndarray, per_epoch: int) -> str:
     return f"never (budget {budget:,})" if hit is None else f"{hit * per_epoch:,}"
 
 
+LIBRARY = Path("experiments/skill_library_fetch/manifest.json")
+"""The skill library built on Fetch (`make skills ROBOT=fetch`)."""
+
+
+def library_table(path: Path = LIBRARY) -> list[str]:
+    """Table 5.1's columns for the Fetch library (no thesis figures: the thesis has no
+    Fetch) with the trivial goal predictor beside them, each skill's success, and the env
+    steps its build took: skill training and data collection."""
+    if not path.exists():
+        return ["No skill library of Fetch is built yet (`make skills ROBOT=fetch`)."]
+    m = json.loads(path.read_text())
+    steps = m.get("env_steps", {})
+    rows = []
+    for name, e in m["models"].items():
+        train, collect = steps.get("train", {}).get(name), steps.get("collect", {}).get(name)
+        rows.append(
+            [
+                name,
+                f"{m['skill_success'][name]:.3f}",
+                f"{e['memory_error_cm']:.2f}",
+                f"{e['model_error_cm']:.2f}",
+                f"{e['goal_error_cm']:.2f}",
+                f"{e['classifier_auc']:.3f}",
+                f"{train:,}" if train is not None else "-",
+                f"{collect:,}" if collect is not None else "-",
+            ]
+        )
+    total = sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
+    header = ["skill", "success", "memory cm", "model cm", "goal cm", "classifier AUC"]
+    return [
+        f"The skill library of Fetch (`{path.parent}`, built at `{m['commit'][:7]}`): the "
+        "skills' success on 200 fresh episodes of their own starts, and Table 5.1's held-out "
+        'terminal errors with the trivial predictor ("the run ends at its goal", goal cm) '
+        f"beside them; its build took {total:,} env steps (skill training and data "
+        "collection; evaluation and the starts' placement not counted), a one-time cost "
+        "shared by every Fetch task the library serves.",
+        "",
+        *table([*header, "training env steps", "collection env steps"], rows),
+    ]
+
+
 def _last(scores: np.ndarray) -> str:
     return "{:.2f} [{:.2f}, {:.2f}]".format(*stats.summarize(scores).last)
 
@@ -135,6 +176,8 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
         for f in published()
     ]
     lines = [
+        *library_table(),
+        "",
         "Our runs on gymnasium-robotics' Fetch tasks (the JAX envs, equal to the originals step "
         "for step): env steps until the 5-epoch rolling mean of the seeds' mean eval success "
         f"first reaches {LEVEL} (evaluation episodes not counted), and the last-5 mean [95 % "

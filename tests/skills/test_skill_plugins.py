@@ -141,6 +141,9 @@ def test_a_library_with_the_push_skill_is_built_loaded_and_searched(push, tmp_pa
     manifest = library.read_manifest(out)
     assert list(manifest["models"]) == ["push"] and manifest["samples"]["push"]["total"] == 100
     assert manifest["dims"]["push"]["param_dim"] == 2
+    length = envs.make("push").episode_length  # one epoch of 16 episodes; runs of <= length
+    assert manifest["env_steps"]["train"] == {"push": 16 * length}
+    assert 0 < manifest["env_steps"]["collect"]["push"] <= 100 * length
     lib, _ = library.load(out)
     assert lib.names == ("push",)
     registry.register_library("push_only", ("push",))

@@ -47,3 +47,23 @@ def test_a_peer_is_compared_with_our_cells_over_the_same_epochs():
     assert line.startswith("- FetchPush, the last 5 epochs up to 8,000 env steps: SB3 X 0.50")
     assert "ours: mine 0.20 [0.20, 0.20] (3 seeds)." in line and "short" not in line
     assert fetch.peer_comparison([], [("SB3 X", "fetch_push", 800, theirs)]) == []
+
+
+def test_the_fetch_librarys_table_counts_the_env_steps_its_build_took(tmp_path):
+    model = {"memory_error_cm": 1.0, "model_error_cm": 0.5, "goal_error_cm": 2.0}
+    manifest = {
+        "commit": "abcdef0123",
+        "skill_success": {"fetch_transit": 0.97, "fetch_grasp": 0.9},
+        "models": {n: {**model, "classifier_auc": 0.99} for n in ("fetch_transit", "fetch_grasp")},
+        "env_steps": {
+            "train": {"fetch_transit": 6_400, "fetch_grasp": 32_000},
+            "collect": {"fetch_transit": 100_000, "fetch_grasp": 150_000},
+        },
+    }
+    path = tmp_path / "lib" / "manifest.json"
+    path.parent.mkdir()
+    path.write_text(json.dumps(manifest))
+    lines = fetch.library_table(path)
+    assert "its build took 288,400 env steps" in lines[0] and "`abcdef0`" in lines[0]
+    assert lines[5] == "| fetch_grasp | 0.900 | 1.00 | 0.50 | 2.00 | 0.990 | 32,000 | 150,000 |"
+    assert fetch.library_table(tmp_path / "none.json")[0].startswith("No skill library of Fetch")
