@@ -47,6 +47,43 @@ def test_the_generated_benchmark_blocks_are_what_the_committed_results_give(bloc
     assert readme[start:stop] == make(), "run python benchmarks/speed_report.py --write"
 
 
+def test_the_suite_time_block_is_what_the_last_committed_row_gives():
+    """docs/architecture.md's "The test suite" block comes from the last row of
+    benchmarks/results/suite_time.jsonl (benchmarks/suite_time.py --write)."""
+    import runpy
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    suite = runpy.run_path(str(root / "benchmarks" / "suite_time.py"))
+    page = (root / "docs" / "architecture.md").read_text()
+    start, stop = page.index(suite["BEGIN"]), page.index(suite["END"]) + len(suite["END"])
+    assert page[start:stop] == "\n".join(suite["block"](suite["rows"]()[-1]))
+
+
+def test_suite_time_sums_a_junit_report_by_folder(tmp_path):
+    import runpy
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    suite = runpy.run_path(str(root / "benchmarks" / "suite_time.py"))
+    junit = tmp_path / "junit.xml"
+    junit.write_text(
+        '<testsuites><testsuite name="pytest">'
+        '<testcase classname="tests.envs.test_a" name="x" time="60"/>'
+        '<testcase classname="tests.envs.test_a" name="y" time="30"><skipped/></testcase>'
+        '<testcase classname="tests.study.test_b" name="z" time="120"><failure/></testcase>'
+        '<testcase classname="tests.test_structure" name="w" time="6"/>'
+        "</testsuite></testsuites>"
+    )
+    row = suite["summarize"](junit)
+    assert row["total_s"] == 216.0 and (row["passed"], row["failed"], row["skipped"]) == (2, 1, 1)
+    assert row["folders_s"] == {"study": 120.0, "envs": 90.0, "(top)": 6.0}
+    assert list(row["slowest_files_s"])[0] == "tests/study/test_b.py"
+    text = suite["block"]({**row, "commit": "0123456789", "cores": 2, "cache": "cold"})[1]
+    assert text.startswith("The whole suite at `0123456` on 2 cores, compilation cache cold:")
+    assert "2 passed, 1 failed, 1 skipped in 3.6 min" in text and "envs 1.5" in text
+
+
 def _cited(text: str):
     """(kind, name) of every file, link, module and command a page cites."""
     import re

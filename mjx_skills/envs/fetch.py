@@ -257,14 +257,22 @@ class FetchRobot:
         control = jnp.concatenate([jnp.zeros(self.model.nu), jnp.asarray(self.reset_mocap)])
         return physics.replace(sensordata=self.backend.sense(physics.data, control))
 
-    def place(self, grip: jax.Array, object_pos: jax.Array, held: jax.Array) -> PhysicsState:
+    def place(
+        self,
+        grip: jax.Array,
+        object_pos: jax.Array,
+        held: jax.Array,
+        fingers_open: jax.Array | bool = True,
+    ) -> PhysicsState:
         """A start with the grip at `grip` ((3,), m) and the object at `object_pos` ((3,) m,
         its centre) or, where `held` (bool), closed in the fingers at the grip: the skills'
         starts (`envs.fetch_skills`). From the setup's end, with the object parked
         (PARKED_OBJECT), the mocap carries the gripper body (its orientation kept) to where
-        the grip lies at `grip`, fingers open, for PLACE_STEPS env steps; then the object is
-        put in place at rest, and the fingers close on it (`held`: it is put back in
-        place before each step but the last) or stay open for CLOSE_STEPS more. ValueError on a scene without an object."""
+        the grip lies at `grip` for PLACE_STEPS env steps, the fingers opening (held, or
+        `fingers_open`) or closing; then the object is put in place at rest, and for
+        CLOSE_STEPS more the fingers close on a held one (put back in place before each
+        step but the last) or keep opening or closing. ValueError on a scene without an
+        object."""
         if not self.has_object:
             raise ValueError(f"scene {self.scene!r} has no object to place")
         obj = slice(self.object_qpos, self.object_qpos + 7)
@@ -276,7 +284,8 @@ class FetchRobot:
                 jnp.asarray(self.start_hand_quat + np.asarray(MOCAP_QUAT_OFFSET), jnp.float32),
             ]
         )
-        physics = self._hold(physics, mocap, jnp.float32(1.0), PLACE_STEPS)
+        opening = jnp.where(held | jnp.asarray(fingers_open), 1.0, -1.0)
+        physics = self._hold(physics, mocap, opening, PLACE_STEPS)
         grip_now = self.sensors(self._sensed(physics, mocap))["grip_pos"]
         at = jnp.concatenate(
             [
@@ -284,11 +293,11 @@ class FetchRobot:
                 jnp.array([1.0, 0.0, 0.0, 0.0]),
             ]
         )
-        gripper = jnp.where(held, -1.0, 1.0)
+        gripper = jnp.where(held, -1.0, opening)
         for step in range(CLOSE_STEPS):
             # The block is put (back) in place at rest before each step but the last, so
             # that a held one cannot fall while the fingers close on it.
-            if step == 0 or step < CLOSE_STEPS - 1:
+            if step < CLOSE_STEPS - 1:
                 pinned = self.backend.qpos(physics).at[obj].set(at)
                 dofs = slice(self.object_dof, self.object_dof + 6)
                 qpos = jnp.where((step == 0) | held, pinned, self.backend.qpos(physics))

@@ -26,6 +26,12 @@ TRAINING_FIELDS = ("held_start_prob",)
 (`LibraryConfig.grasp_held_start_prob`)."""
 GRIP_CLEARANCE = 0.02
 """A free grip starts at least this far (m) above the resting block's centre."""
+FINGERTIPS = 0.05
+"""How far (m) Fetch's closed fingertips reach below the grip: a free grip within
+`NEAR_BLOCK` of the block in x and y starts at least this far above the block's centre,
+so that no start presses the fingers into it (measured: closer, the block sinks into the
+table; open fingers straddle a centred block from 2 cm, but not an offset one)."""
+NEAR_BLOCK = 0.07
 
 
 def _lerp(param: jax.Array, low, high) -> jax.Array:
@@ -38,13 +44,18 @@ class FetchSkill(FetchPickAndPlace):
     """Base of the Fetch skills: pick-and-place's scene and robot, 20-step episodes, 3 cm
     success, starts drawn by `sample_start` -> (grip (3,), block (3,), goal (3,)) and placed
     by `FetchRobot.place` (with the block in the fingers for `grasped_start`, or, in
-    training, with `EnvConfig.held_start_prob`)."""
+    training, with `EnvConfig.held_start_prob`; otherwise the fingers open or closed,
+    `open_fingers_prob`)."""
 
     default_episode_length = 20
     default_threshold = 0.03
     grasped_start = False
     goal_is_object_skill = True
     """Whether the achieved goal is the block's position (else the grip's)."""
+    open_fingers_prob = 0.5
+    """Share of starts without the block in hand whose fingers are open; the others start
+    closed, as Fetch's tasks do (a skill the search starts from a task's first state meets
+    closed fingers)."""
     param_dim: int
     state_dims: tuple[int, ...]
     memory_dims: tuple[int, ...]
@@ -97,7 +108,11 @@ class FetchSkill(FetchPickAndPlace):
     def reset(self, key: jax.Array) -> State:
         grip, block, goal = self.sample_start(key)
         grip, held = self.training_start(key, grip, block)
-        return self.state_from(self.robot.place(grip, block, held), goal)
+        near = jnp.linalg.norm(grip[:2] - block[:2]) < NEAR_BLOCK
+        clear = jnp.maximum(grip[2], block[2] + FINGERTIPS)
+        grip = grip.at[2].set(jnp.where(near & ~held, clear, grip[2]))
+        fingers_open = jax.random.uniform(jax.random.fold_in(key, 11)) < self.open_fingers_prob
+        return self.state_from(self.robot.place(grip, block, held, fingers_open), goal)
 
 
 class FetchTransit(FetchSkill):
@@ -120,18 +135,24 @@ class FetchTransit(FetchSkill):
 
 
 class FetchGrasp(FetchSkill):
-    """From within 5 cm above the block, grasp it and lift it 5-8 cm (20 steps)."""
+    """From 5-7 cm above the block (within 4 cm of it in x and y), grasp it and lift it
+    5-8 cm (20 steps). Higher than Baxter's grasp starts (within 5 cm): Fetch's closed
+    fingertips reach 5 cm below the grip (`FINGERTIPS`), so a transit that brings them
+    closer presses them into the block (the search's `--search.transit-height` for
+    Fetch: 0.05 to 0.07)."""
 
     param_dim = 1
     lift_range = (0.05, 0.08)
+    start_height = (FINGERTIPS, 0.07)
+    start_radius = 0.04
     state_dims = tuple(range(25))
     memory_dims = (0, 1, 2, 3, 4, 5, 9, 10)  # grip, block, fingers: positions only
 
     def sample_start(self, key):
         k_block, k_dz, k_r, k_a, k_h = jax.random.split(key, 5)
         block = self.sample_on_table(k_block)
-        dz = jax.random.uniform(k_dz, (), minval=0.03, maxval=0.045)
-        radius = jnp.sqrt(0.05**2 - dz**2) * jnp.sqrt(jax.random.uniform(k_r, ()))
+        dz = jax.random.uniform(k_dz, (), minval=self.start_height[0], maxval=self.start_height[1])
+        radius = self.start_radius * jnp.sqrt(jax.random.uniform(k_r, ()))
         angle = jax.random.uniform(k_a, (), minval=0.0, maxval=2 * jnp.pi)
         grip = block + jnp.stack([radius * jnp.cos(angle), radius * jnp.sin(angle), dz])
         lift = jax.random.uniform(k_h, (), minval=self.lift_range[0], maxval=self.lift_range[1])

@@ -30,8 +30,15 @@ def _starts(name: str, **config):
 def test_a_start_puts_the_grip_where_it_was_drawn(name):
     env, (grip, block, goal), state = _starts(name)
     obs = np.asarray(state.obs)
-    error = np.linalg.norm(obs[:, 0:3] - np.asarray(grip), axis=-1)
+    near = np.linalg.norm(np.asarray(grip)[:, :2] - np.asarray(block)[:, :2], axis=-1) < 0.07
+    lifted = np.asarray(grip).copy()  # near the block a free grip keeps the fingertips clear
+    if name == "fetch_transit":
+        low = np.asarray(block)[:, 2] + 0.05
+        lifted[near, 2] = np.maximum(lifted[near, 2], low[near])
+    error = np.linalg.norm(obs[:, 0:3] - lifted, axis=-1)
     assert error.max() < 0.01, error.max()  # measured: 0.5 cm at most
+    if name == "fetch_transit":  # the block rests where it was drawn, undisturbed
+        np.testing.assert_allclose(obs[:, 3:6], np.asarray(block), atol=0.003)
     assert bool(jnp.all(state.done == 0)) and float(state.metrics["physics_resets"].sum()) == 0
     low, high = np.asarray(env.box_low), np.asarray(env.box_high)
     assert np.all((np.asarray(goal) >= low) & (np.asarray(goal) <= high))
@@ -49,15 +56,18 @@ def test_a_transfer_starts_with_the_block_held_and_keeps_it_when_still():
     assert not bool(jnp.any(env.terminated(state.obs, state.desired_goal)))
 
 
-def test_a_free_block_rests_where_it_was_drawn_with_the_fingers_open():
+def test_a_free_block_rests_where_it_was_drawn_with_the_fingers_open_or_closed():
     env, (grip, block, goal), state = _starts("fetch_grasp")
     obs = np.asarray(state.obs)
     np.testing.assert_allclose(obs[:, 3:6], np.asarray(block), atol=0.005)
     assert not bool(jnp.any(state.info["grasped"]))
-    assert np.all(obs[:, 9:11].sum(-1) > 0.06)  # open
-    # The grip starts 3 to 4.5 cm above the block, within 5 cm of it; the goal lifts it.
+    gap = obs[:, 9:11].sum(-1)
+    assert np.all((gap > 0.09) | (gap < 0.005)) and 0 < np.mean(gap > 0.09) < 1
+    # The grip starts 5 to 7 cm above the block, within 4 cm of it in x and y; the goal
+    # lifts the block by 5 to 8 cm.
     rel = obs[:, 6:9]
-    assert np.all(np.linalg.norm(rel, axis=-1) < 0.055) and np.all(rel[:, 2] < -0.025)
+    assert np.all(np.linalg.norm(rel[:, :2], axis=-1) < 0.045)
+    assert np.all((-rel[:, 2] > 0.045) & (-rel[:, 2] < 0.075))
     lift = np.asarray(goal)[:, 2] - np.asarray(block)[:, 2]
     assert np.all((lift >= 0.05) & (lift <= 0.08))
 
