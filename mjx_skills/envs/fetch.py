@@ -263,6 +263,7 @@ class FetchRobot:
         object_pos: jax.Array,
         held: jax.Array,
         fingers_open: jax.Array | bool = True,
+        held_below: jax.Array | float = 0.0,
     ) -> PhysicsState:
         """A start with the grip at `grip` ((3,), m) and the object at `object_pos` ((3,) m,
         its centre) or, where `held` (bool), closed in the fingers at the grip: the skills'
@@ -271,8 +272,8 @@ class FetchRobot:
         the grip lies at `grip` for PLACE_STEPS env steps, the fingers opening (held, or
         `fingers_open`) or closing; then the object is put in place at rest, and for
         CLOSE_STEPS more the fingers close on a held one (put back in place before each
-        step but the last) or keep opening or closing. ValueError on a scene without an
-        object."""
+        step but the last; `held_below` m below the grip) or keep opening or closing.
+        ValueError on a scene without an object."""
         if not self.has_object:
             raise ValueError(f"scene {self.scene!r} has no object to place")
         obj = slice(self.object_qpos, self.object_qpos + 7)
@@ -289,7 +290,11 @@ class FetchRobot:
         grip_now = self.sensors(self._sensed(physics, mocap))["grip_pos"]
         at = jnp.concatenate(
             [
-                jnp.where(held, grip_now, jnp.asarray(object_pos, jnp.float32)),
+                jnp.where(
+                    held,
+                    grip_now - jnp.array([0.0, 0.0, 1.0]) * held_below,
+                    jnp.asarray(object_pos, jnp.float32),
+                ),
                 jnp.array([1.0, 0.0, 0.0, 0.0]),
             ]
         )
@@ -372,9 +377,11 @@ class FetchRobot:
 
     def grasped(self, obs: jax.Array) -> jax.Array:
         """The object between the fingers, read from observations (..., 25): its centre
-        within 2 cm of the grip site and the fingers closed on it, neither shut nor open."""
+        within 3 cm of the grip site (a grasp from above holds the 5 cm block up to 2-3 cm
+        below the grip: measured on the search's grasps, the median offset is 2.0 cm) and the
+        fingers closed on it, neither shut nor open."""
         if not self.has_object:
             return jnp.zeros(obs.shape[:-1], bool)
         rel = obs[..., self.layout["rel"]]
         gap = jnp.sum(obs[..., self.layout["fingers"]], axis=-1)
-        return (jnp.linalg.norm(rel, axis=-1) < 0.02) & (gap > 0.02) & (gap < 0.06)
+        return (jnp.linalg.norm(rel, axis=-1) < 0.03) & (gap > 0.02) & (gap < 0.06)

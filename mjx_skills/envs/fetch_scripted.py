@@ -89,13 +89,19 @@ def transit(obs: jnp.ndarray, goal: jnp.ndarray) -> jnp.ndarray:
     return toward(obs[..., 0:3], goal, OPEN)
 
 
+def transfer(obs: jnp.ndarray, goal: jnp.ndarray) -> jnp.ndarray:
+    """The held block straight to the goal, closed: the grip aims where the block, at its
+    offset in the fingers, is at the goal."""
+    return toward(obs[..., 0:3], goal - obs[..., 6:9], CLOSE)
+
+
 SCRIPTED = {
     "fetch_reach": reach,
     "fetch_push": push,
     "fetch_pick_and_place": pick_and_place,
     "fetch_transit": transit,
     "fetch_grasp": pick_and_place,  # its goal: the block lifted where it lies
-    "fetch_transfer": pick_and_place,  # held from the start: straight to the goal, closed
+    "fetch_transfer": transfer,
 }
 """Registry name -> scripted controller (FetchSlide has none: a shot that stops a puck
 on a low-friction table within 5 cm is no simple state machine). The Fetch skills

@@ -48,7 +48,7 @@ def test_a_transfer_starts_with_the_block_held_and_keeps_it_when_still():
     env, _, state = _starts("fetch_transfer")
     assert bool(jnp.all(state.info["grasped"]))
     rel = np.linalg.norm(np.asarray(state.obs)[:, 6:9], axis=-1)
-    assert rel.max() < 0.01
+    assert rel.max() < 0.027 and rel.min() < 0.005  # 0 to 2.5 cm below the grip
     step = jax.jit(jax.vmap(env.step))
     for _ in range(5):  # the fingers kept closed, the arm kept still
         state = step(state, jnp.tile(jnp.array([0.0, 0.0, 0.0, -1.0]), (N, 1)))
