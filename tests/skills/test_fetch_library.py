@@ -1,0 +1,54 @@
+"""The committed skill library of Fetch (experiments/skill_library_fetch, `make skills
+ROBOT=fetch`): what its manifest records, and every library method training a Fetch task
+with it."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from mjx_skills.config import PASConfig, SearchConfig, TrainConfig
+from mjx_skills.skills import registry
+from mjx_skills.skills.library import library_robot, load, read_manifest
+from mjx_skills.training.metrics_log import read_metrics
+from mjx_skills.training.runner import RunArgs, train_run
+
+LIBRARY = registry.default_dir("fetch")
+FETCH = registry.LIBRARIES["SL1_fetch"]
+
+
+def test_the_fetch_library_holds_the_fetch_skills_at_the_quality_bar():
+    manifest = read_manifest(LIBRARY)
+    assert library_robot(manifest) == "fetch" and list(manifest["models"]) == list(FETCH)
+    assert not manifest["commit"].endswith("+dirty")  # built from a clean commit
+    assert all(manifest["skill_success"][n] >= 0.9 for n in FETCH)  # docs/skill_library.md
+    steps = manifest["env_steps"]
+    assert set(steps["train"]) == set(steps["collect"]) == set(FETCH)
+    lib, _ = load(LIBRARY)
+    assert lib.names == FETCH
+
+
+@pytest.mark.parametrize("method", ["ddpg_her_sl", "pas"])
+def test_a_library_method_trains_fetch_pick_and_place_with_it(method, tmp_path):
+    group = "search" if method == "ddpg_her_sl" else "pas"
+    where = {"library": "SL1_fetch", "library_dir": str(LIBRARY)}
+    options = {
+        "search": {"search": SearchConfig(branching=3, height=2, **where)},
+        "pas": {"pas": PASConfig(updates_per_cycle=3, **where)},
+    }[group]
+    updates = {"updates_per_cycle": 3} if method == "ddpg_her_sl" else {}
+    train = TrainConfig(
+        task="fetch_pick_and_place",
+        epochs=1,
+        envs=2,
+        cycles=1,
+        eval_episodes=2,
+        replay_capacity=3000,
+        progress=False,
+        out=str(tmp_path),
+        **updates,
+    )
+    (row,) = read_metrics(train_run(RunArgs(train=train, method=method, options=options)))
+    assert row["env_steps"] == 2 * 50 and math.isfinite(row["critic_loss"])
+    assert row["skill_calls"] > 0  # the Fetch skills ran
