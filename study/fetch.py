@@ -238,7 +238,7 @@ def shortfalls(ours) -> list[str]:
             verdict = "ahead of" if steps < best["env_steps"] else "behind"
             out.append(
                 f"On {env}, {name} reaches {LEVEL} at {steps:,} env steps; {theirs}: "
-                f"we are {verdict} the published DDPG+HER."
+                f"we are {verdict} the published DDPG+HER.{_caveats(name)}"
             )
             continue
         name, per, s = max(mine, key=lambda m: stats.summarize(m[2]).last[0])
@@ -248,6 +248,31 @@ def shortfalls(ours) -> list[str]:
             f"steps); {theirs}: we fall short of the published DDPG+HER."
         )
     return ["", *out] if out else []
+
+
+def _caveats(name: str) -> str:
+    """What a reader must know of experiment `name`'s cell beside a published figure: the
+    seeds it ran on if they were tuning seeds, and the skill library's one-time cost if a
+    library method ran."""
+    from mjx_skills.methods import get
+
+    if name not in names():
+        return ""
+    exp = load_experiment(name)
+    out = ""
+    if exp.group == "tuning":
+        out += (
+            f" That cell ran on the tuning seeds {exp.seed}-{exp.seed + exp.seeds - 1} "
+            "(no fresh-seed headline yet)."
+        )
+    if any(get(m).library_group for m in exp.methods) and LIBRARY.exists():
+        steps = json.loads(LIBRARY.read_text()).get("env_steps", {})
+        total = sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
+        out += (
+            f" It uses the skill library of Fetch, whose build took {total:,} env steps "
+            "once, not counted in its curve."
+        )
+    return out
 
 
 def figure(ours, out: Path, draw: bool = True) -> Path | None:

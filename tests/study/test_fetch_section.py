@@ -67,3 +67,11 @@ def test_the_fetch_librarys_table_counts_the_env_steps_its_build_took(tmp_path):
     assert "its build took 288,400 env steps" in lines[0] and "`abcdef0`" in lines[0]
     assert lines[5] == "| fetch_grasp | 0.900 | 1.00 | 0.50 | 2.00 | 0.990 | 32,000 | 150,000 |"
     assert fetch.library_table(tmp_path / "none.json")[0].startswith("No skill library of Fetch")
+
+
+def test_a_cell_beside_a_published_figure_says_its_seeds_and_its_librarys_cost():
+    sl = fetch._caveats("fetch_pick_and_place_sl")
+    assert "ran on the tuning seeds 0-2" in sl and "skill library of Fetch, whose build took" in sl
+    flat = fetch._caveats("fetch_push_her")
+    assert "tuning seeds 0-2" in flat and "library" not in flat
+    assert fetch._caveats("not_an_experiment") == ""
