@@ -169,8 +169,8 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     from mjx_skills.envs.registry import robot_of
     from mjx_skills.skills.library import default_dir, library_robot
     from mjx_skills.skills.registry import (
-        LIBRARIES,
-        SKILLS,
+        libraries_of,
+        library_robot_name,
         library_skills,
         robots_with_skills,
         skills_of,
@@ -185,15 +185,14 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     skills = library_skills(chosen.library)  # ValueError naming the registered libraries
     directory = in_checkout(chosen.library_dir)
     manifest = directory / "manifest.json"
-    named_for = SKILLS[skills[0]].env.robot_name
+    named_for = library_robot_name(chosen.library)
     built = read_json(manifest) if manifest.exists() else {}
     built_for = library_robot(built) if built else named_for  # what would be built there
     if built_for == robot and named_for != robot:
-        names = [n for n, sk in LIBRARIES.items() if SKILLS[sk[0]].env.robot_name == robot]
         raise ValueError(
             f"--{group}.library {chosen.library} names {named_for.capitalize()} skills; "
             f"{task} is a {robot.capitalize()} task: pass --{group}.library "
-            f"{' or '.join(names)}"
+            f"{' or '.join(libraries_of(robot))}"
         )
     if built_for == robot:  # the right robot: does it hold the skills the name needs?
         models = built.get("models")  # a manifest without them (a fake) says nothing
@@ -210,11 +209,10 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     state = "is built" if manifest.exists() else "would be built (none there yet)"
     said = f"the skill library {state} for the {built_for.capitalize()} robot ({directory})"
     if robot in robots_with_skills():
-        names = [n for n, sk in LIBRARIES.items() if SKILLS[sk[0]].env.robot_name == robot]
         raise ValueError(
             f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run with "
-            f"it: pass --{group}.library {' or '.join(names)} (the {robot.capitalize()} "
-            f"skills) and {flag} {default_dir(robot)}, which `python -m "
+            f"it: pass --{group}.library {' or '.join(libraries_of(robot))} (the "
+            f"{robot.capitalize()} skills) and {flag} {default_dir(robot)}, which `python -m "
             f"mjx_skills.build_library --robot {robot}` builds (`make skills ROBOT={robot}`)"
         )
     flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)

@@ -191,6 +191,17 @@ def get(name: str) -> Skill:
     return SKILLS[name]
 
 
+def library_robot_name(name: str) -> str:
+    """The robot whose skills library `name` holds (a library holds one robot's skills,
+    `register_library`); ValueError naming the valid libraries."""
+    return get(library_skills(name)[0]).env.robot_name
+
+
+def libraries_of(robot: str) -> tuple[str, ...]:
+    """The registered libraries of robot `robot`'s skills, in registration order."""
+    return tuple(n for n in LIBRARIES if library_robot_name(n) == robot)
+
+
 def skills_of(robot: str) -> tuple[str, ...]:
     """The registered skills of robot `robot`, in registration order (may be empty)."""
     envs.check_robot(robot)
