@@ -133,19 +133,28 @@ class _Eval:
         return time.perf_counter() - self.t0 - self.eval_s
 
     def evaluate(self, model, env_steps: int) -> None:
-        t_eval, wins = time.perf_counter(), 0
-        for i in range(EVAL_EPISODES):
-            obs, _ = self.env.reset(seed=10_000 + i + env_steps)
-            done, info = False, {}
-            while not done:
-                action, _ = model.predict(obs, deterministic=True)
-                obs, _, terminated, truncated, info = self.env.step(action)
-                done = terminated or truncated
-            wins += bool(info.get("is_success"))
+        t_eval = time.perf_counter()
+        seeds = [10_000 + i + env_steps for i in range(EVAL_EPISODES)]
+        success = success_rate(model, self.env, seeds)
         self.eval_s += time.perf_counter() - t_eval
         self.curve.append(
-            {"env_steps": env_steps, "wall_s": self.train_s(), "eval_success": wins / EVAL_EPISODES}
+            {"env_steps": env_steps, "wall_s": self.train_s(), "eval_success": success}
         )
+
+
+def success_rate(model, env: gymnasium.Env, seeds: list[int]) -> float:
+    """The share of episodes, one from each reset seed, that an SB3 `model`'s deterministic
+    policy ends with `info["is_success"]` (success read at the last step)."""
+    wins = 0
+    for seed in seeds:
+        obs, _ = env.reset(seed=seed)
+        done, info = False, {}
+        while not done:
+            action, _ = model.predict(obs, deterministic=True)
+            obs, _, terminated, truncated, info = env.step(action)
+            done = terminated or truncated
+        wins += bool(info.get("is_success"))
+    return wins / len(seeds)
 
 
 def run_sb3(task: str, algo: str, total_steps: int, seed: int = 0) -> dict:

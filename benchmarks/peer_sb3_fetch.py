@@ -31,15 +31,19 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import runpy
 import time
 from pathlib import Path
 
 import gymnasium
 import numpy as np
 
+from mjx_skills.core.files import read_jsonl, write_text_atomic
 from mjx_skills.envs.fetch_reference import reference_env
 
 RESULTS = Path(__file__).parent / "results" / "peer_sb3_fetch.jsonl"
+PEER_SB3 = runpy.run_path(str(Path(__file__).with_name("peer_sb3.py")))
+"""benchmarks/peer_sb3.py's functions: its evaluation (`success_rate`) is ours too."""
 EPISODE, EPISODES_PER_EPOCH, EVAL_EPISODES = 50, 16, 20
 EVAL_SEED = 10_000
 ZOO = {
@@ -76,17 +80,10 @@ class Evaluator:
         return time.perf_counter() - self.t0 - self.eval_s
 
     def __call__(self, model, env_steps: int) -> float:
-        t_eval, wins = time.perf_counter(), 0
-        for i in range(EVAL_EPISODES):
-            obs, _ = self.env.reset(seed=EVAL_SEED + i)
-            done, info = False, {}
-            while not done:
-                action, _ = model.predict(obs, deterministic=True)
-                obs, _, terminated, truncated, info = self.env.step(action)
-                done = terminated or truncated
-            wins += bool(info.get("is_success"))
+        t_eval = time.perf_counter()
+        seeds = [EVAL_SEED + i for i in range(EVAL_EPISODES)]
+        success = PEER_SB3["success_rate"](model, self.env, seeds)
         self.eval_s += time.perf_counter() - t_eval
-        success = wins / EVAL_EPISODES
         self.curve.append(
             {"env_steps": env_steps, "wall_s": round(self.train_s(), 2), "eval_success": success}
         )
@@ -184,10 +181,8 @@ def reference_env_name(task: str) -> str:
 
 
 def stored_rows(path: Path = RESULTS) -> list[dict]:
-    """Every row of the results file (none if it is missing)."""
-    if not path.exists():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    """Every row of the results file (none if it is missing; it is written whole)."""
+    return read_jsonl(path, whole=True) if path.exists() else []
 
 
 def main() -> None:
@@ -216,10 +211,7 @@ def main() -> None:
             continue
         row = run(args.task, args.algo, args.steps, args.net, args.batch, seed)
         kept = [r for r in rows if r not in same]
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = args.out.with_suffix(".tmp")
-        tmp.write_text("".join(json.dumps(r) + "\n" for r in [*kept, row]))
-        tmp.replace(args.out)
+        write_text_atomic(args.out, "".join(json.dumps(r) + "\n" for r in [*kept, row]))
         print(json.dumps({k: v for k, v in row.items() if k != "curve"}), flush=True)
 
 

@@ -21,6 +21,8 @@ import xml.etree.ElementTree as ET
 from collections import defaultdict
 from pathlib import Path
 
+from mjx_skills.core.files import read_jsonl
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results" / "suite_time.jsonl"
 DOC = ROOT / "docs" / "architecture.md"
@@ -74,9 +76,8 @@ def block(row: dict) -> list[str]:
 
 
 def rows() -> list[dict]:
-    if not RESULTS.exists():
-        return []
-    return [json.loads(line) for line in RESULTS.read_text().splitlines() if line.strip()]
+    """The rows so far (an appended file: a half-written last one is dropped)."""
+    return read_jsonl(RESULTS) if RESULTS.exists() else []
 
 
 def main() -> None:

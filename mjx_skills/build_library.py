@@ -34,7 +34,7 @@ from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.skills import fit, library, registry
 from mjx_skills.skills.table import evaluate_models, write_table
 from mjx_skills.training.interrupt import INTERRUPTED
-from mjx_skills.training.metrics_log import logged_epochs
+from mjx_skills.training.metrics_log import logged_epochs, read_metrics
 from mjx_skills.training.runner import RunArgs, train_and_keep
 
 
@@ -320,8 +320,7 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
 def _trained_env_steps(run_dir: Path) -> int:
     """Env steps a skill's training took (its last logged epoch's count; evaluation and the
     starts' placement not counted)."""
-    lines = (Path(run_dir) / "metrics.jsonl").read_text().splitlines()
-    return int(json.loads(lines[-1])["env_steps"])
+    return int(read_metrics(run_dir)[-1]["env_steps"])
 
 
 def _by_source(d: dict[str, np.ndarray], names: tuple[str, ...]) -> dict[str, float]:

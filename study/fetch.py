@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from mjx_skills.analysis import stats
+from mjx_skills.core.files import read_jsonl
 from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.experiment_file import names
 from mjx_skills.sweeps.experiments import load_experiment
@@ -62,11 +63,9 @@ def peer_cells(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray]]:
     if not path.exists():
         return []
     groups: dict[tuple, list[dict]] = {}
-    for line in path.read_text().splitlines():
-        if line.strip():
-            row = json.loads(line)
-            settings = (row["task"], row["algo"], tuple(row["net_arch"]), row["batch_size"])
-            groups.setdefault((*settings, row["steps"]), []).append(row)
+    for row in read_jsonl(path, whole=True):
+        settings = (row["task"], row["algo"], tuple(row["net_arch"]), row["batch_size"])
+        groups.setdefault((*settings, row["steps"]), []).append(row)
     out = []
     for (task, algo, net, batch, _), rows in groups.items():
         curves = [[p["eval_success"] for p in r["curve"]] for r in sorted(rows, key=_seed)]
@@ -112,6 +111,13 @@ LIBRARY = Path("experiments/skill_library_fetch/manifest.json")
 """The skill library built on Fetch (`make skills ROBOT=fetch`)."""
 
 
+def build_env_steps(manifest: dict) -> int:
+    """Env steps a library's build took: its skills' training and data collection (0 for a
+    manifest that does not record them)."""
+    steps = manifest.get("env_steps", {})
+    return sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
+
+
 def library_table(path: Path = LIBRARY) -> list[str]:
     """Table 5.1's columns for the Fetch library (no thesis figures: the thesis has no
     Fetch) with the trivial goal predictor beside them, each skill's success, and the env
@@ -135,7 +141,7 @@ def library_table(path: Path = LIBRARY) -> list[str]:
                 f"{collect:,}" if collect is not None else "-",
             ]
         )
-    total = sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
+    total = build_env_steps(m)
     header = ["skill", "success", "memory cm", "model cm", "goal cm", "classifier AUC"]
     return [
         f"The skill library of Fetch (`{path.parent}`, built at `{m['commit'][:7]}`): the "
@@ -266,8 +272,7 @@ def _caveats(name: str) -> str:
             "(no fresh-seed headline yet)."
         )
     if any(get(m).library_group for m in exp.methods) and LIBRARY.exists():
-        steps = json.loads(LIBRARY.read_text()).get("env_steps", {})
-        total = sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
+        total = build_env_steps(json.loads(LIBRARY.read_text()))
         out += (
             f" It uses the skill library of Fetch, whose build took {total:,} env steps "
             "once, not counted in its curve."
