@@ -20,6 +20,7 @@ import jax.numpy as jnp
 from mjx_skills.config import EnvConfig
 from mjx_skills.core.types import State
 from mjx_skills.envs.fetch_tasks import AIR_MAX, FetchPickAndPlace, refuse_unsupported
+from mjx_skills.envs.skills import lerp
 
 TRAINING_FIELDS = ("held_start_prob",)
 """EnvConfig fields of the Baxter scenes a Fetch skill honours: grasp trains with held starts
@@ -32,12 +33,6 @@ FINGERTIPS = 0.05
 so that no start presses the fingers into it (measured: closer, the block sinks into the
 table; open fingers straddle a centred block from 2 cm, but not an offset one)."""
 NEAR_BLOCK = 0.07
-
-
-def _lerp(param: jax.Array, low, high) -> jax.Array:
-    """[-1, 1] -> [low, high]."""
-    low, high = jnp.asarray(low), jnp.asarray(high)
-    return low + (jnp.clip(param, -1.0, 1.0) + 1.0) * 0.5 * (high - low)
 
 
 class FetchSkill(FetchPickAndPlace):
@@ -133,7 +128,7 @@ class FetchTransit(FetchSkill):
         return self.free_grip(k_grip), self.sample_on_table(k_block), self.free_grip(k_goal)
 
     def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
-        return _lerp(param, self.box_low.at[2].add(GRIP_CLEARANCE), self.box_high)
+        return lerp(param, self.box_low.at[2].add(GRIP_CLEARANCE), self.box_high)
 
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
         return self.is_success(obs[..., self.layout["grip"]], goal)
@@ -164,7 +159,7 @@ class FetchGrasp(FetchSkill):
         return grip, block, block + jnp.array([0.0, 0.0, 1.0]) * lift
 
     def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
-        lift = _lerp(param[..., 0], *self.lift_range)
+        lift = lerp(param[..., 0], *self.lift_range)
         zero = jnp.zeros_like(lift)
         return obs[..., self.layout["object"]] + jnp.stack([zero, zero, lift], axis=-1)
 
@@ -193,7 +188,7 @@ class FetchTransfer(FetchSkill):
         return grip, grip, self.sample_box(k_goal, *self.object_goal_box())
 
     def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
-        return _lerp(param, *self.object_goal_box())
+        return lerp(param, *self.object_goal_box())
 
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """At the goal, or the block dropped (nothing left to transfer)."""

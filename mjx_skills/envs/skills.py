@@ -20,8 +20,9 @@ MANIPULATION_MEMORY_DIMS = _DIMS[OBS_GRIP] + _DIMS[OBS_OBJECT] + _DIMS[OBS_FINGE
 positions only, so metres are not mixed with radians and velocities."""
 
 
-def _lerp(param: jax.Array, low, high) -> jax.Array:
-    """[-1, 1] -> [low, high]."""
+def lerp(param: jax.Array, low, high) -> jax.Array:
+    """A skill's goal parameters in [-1, 1] (clipped) -> the box [low, high]: every skill's
+    `goal_from_param` (Baxter's here, Fetch's in envs/fetch_skills.py)."""
     low, high = jnp.asarray(low), jnp.asarray(high)
     return low + (jnp.clip(param, -1.0, 1.0) + 1.0) * 0.5 * (high - low)
 
@@ -44,7 +45,7 @@ class Transit(BaxterEnv):
         )
 
     def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
-        return _lerp(param, self.workspace_low, self.workspace_high)
+        return lerp(param, self.workspace_low, self.workspace_high)
 
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
         return self.is_success(obs[..., OBS_GRIP], goal)
@@ -71,7 +72,7 @@ class Grasp(BaxterEnv):
         return grip, obj, obj + jnp.array([0.0, 0.0, 1.0]) * lift
 
     def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
-        lift = _lerp(param[..., 0], *self.lift_range)
+        lift = lerp(param[..., 0], *self.lift_range)
         zero = jnp.zeros_like(lift)
         return obs[..., OBS_OBJECT] + jnp.stack([zero, zero, lift], axis=-1)
 
@@ -103,7 +104,7 @@ class Transfer(BaxterEnv):
         return grip, grip, self.sample_workspace(k_goal, *self.object_goal_box())
 
     def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
-        return _lerp(param, *self.object_goal_box())
+        return lerp(param, *self.object_goal_box())
 
     def terminated(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
         """At the goal, or the cube dropped (nothing left to transfer)."""
