@@ -6,8 +6,11 @@ STAMP   := $(VENV)/.stamp-setup
 TASK    ?= pick_move
 METHOD  ?=
 EPOCHS  ?= 100
-LIBRARY := experiments/skill_library
-ROBOT   ?= baxter
+# A Fetch task trains with the skills built on Fetch (`--preset fetch`, their library).
+FETCH   := $(filter fetch_%,$(TASK))
+LIBRARY := experiments/skill_library$(if $(FETCH),_fetch)
+ROBOT   ?= $(if $(FETCH),fetch,baxter)
+PRESET  ?= $(if $(FETCH),fetch)
 SEEDS   ?= 1
 OUT     ?= runs
 ARGS    ?=
@@ -23,10 +26,10 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 # The CLI's default method (DDPG+HER+SL) unless METHOD=...; a library method builds the skill
-# library first if there is none.
+# library first if there is none (on Fetch for a Fetch task: make train TASK=fetch_pick_and_place).
 train: setup
-	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills; fi
-	$(BIN)/python -m mjx_skills.train $(METHOD) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
+	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills ROBOT=$(ROBOT); fi
+	$(BIN)/python -m mjx_skills.train $(METHOD) $(if $(PRESET),--preset $(PRESET)) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
 
 # Train transit / grasp / transfer, collect their data, fit their models (about 10 min).
 # ROBOT=fetch builds the same skills on Fetch into experiments/skill_library_fetch.

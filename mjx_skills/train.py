@@ -4,11 +4,12 @@ examples:
   python -m mjx_skills.train --task pick_move             # DDPG+HER+SL, the default method
   python -m mjx_skills.train ddpg_her --task transit --epochs 20 --seeds 2
   python -m mjx_skills.train ddpg_her_sl --preset thesis  # the thesis's formulation
+  python -m mjx_skills.train --task fetch_pick_and_place --preset fetch  # the Fetch skills
   python -m mjx_skills.train --resume RUN_DIR             # the run's config.json decides
   python -m mjx_skills.train --resume RUN_DIR --epochs 60 # ... and train on to 60 epochs
 
 Read before the method's options: --resume RUN_DIR [--epochs N] (nothing else with it),
---preset NAME (a method's option preset: default, thesis), --method NAME (an earlier
+--preset NAME (a method's option preset: default, thesis, fetch), --method NAME (an earlier
 form of the subcommand) and --import MODULE (your module registering tasks or robots:
 a dotted name or a .py path; repeatable).
 """
@@ -44,14 +45,20 @@ def _expand_alias(arg: str) -> str:
 
 
 def _flag_value(argv: list[str], flag: str) -> tuple[str | None, list[str]]:
-    """-> (value of `flag VALUE` or `flag=VALUE`, argv without it)."""
+    """-> (value of `flag VALUE` or `flag=VALUE`, argv without it); SystemExit when the flag
+    has no value or is given twice."""
     for i, arg in enumerate(argv):
         if arg == flag:
             if i + 1 >= len(argv):
                 raise SystemExit(f"error: {flag} needs a value")
-            return argv[i + 1], argv[:i] + argv[i + 2 :]
-        if arg.startswith(flag + "="):
-            return arg.partition("=")[2], argv[:i] + argv[i + 1 :]
+            value, rest = argv[i + 1], argv[:i] + argv[i + 2 :]
+        elif arg.startswith(flag + "="):
+            value, rest = arg.partition("=")[2], argv[:i] + argv[i + 1 :]
+        else:
+            continue
+        if any(a == flag or a.startswith(flag + "=") for a in rest):
+            raise SystemExit(f"error: {flag} given twice")
+        return value, rest
     return None, argv
 
 

@@ -15,6 +15,8 @@ import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import read_jsonl
+from mjx_skills.core.paths import CHECKOUT
+from mjx_skills.skills.registry import default_dir
 from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.experiment_file import names
 from mjx_skills.sweeps.experiments import load_experiment
@@ -39,9 +41,9 @@ def published() -> list[dict]:
     return tomllib.loads(PUBLISHED.read_text())["figure"]
 
 
-def stored_cells() -> list[tuple[str, str, int, np.ndarray]]:
-    """(experiment, task, env steps per epoch, (seeds, epochs) success) of every stored cell
-    of an experiment on a Fetch task, in experiment order."""
+def _stored() -> list[tuple[str, str, list[dict]]]:
+    """(experiment, task, metrics rows) of every stored cell of an experiment on a Fetch
+    task, in experiment order."""
     out = []
     for name in names():
         exp = load_experiment(name)
@@ -49,17 +51,68 @@ def stored_cells() -> list[tuple[str, str, int, np.ndarray]]:
             continue
         for cell in exp.cells():
             where = cells.stored(cell, cells.STORE)
-            if where is None:
-                continue
-            rows = cells.read_stored_metrics(where)
-            per_epoch = rows[0]["env_steps"] // rows[0]["epoch"]
-            out.append((name, cell.task, per_epoch, stats.scores_from_rows(rows)))
+            if where is not None:
+                out.append((name, cell.task, cells.read_stored_metrics(where)))
     return out
+
+
+def stored_cells(found=None) -> list[tuple[str, str, int, np.ndarray]]:
+    """(experiment, task, env steps per epoch, (seeds, epochs) success) of every stored cell
+    of an experiment on a Fetch task, in experiment order (of `found`, `_stored()`'s list)."""
+    return [
+        (name, task, _per_epoch(rows), stats.scores_from_rows(rows))
+        for name, task, rows in _stored()
+    ]
+
+
+def _per_epoch(rows: list[dict]) -> int:
+    return rows[0]["env_steps"] // rows[0]["epoch"]
+
+
+def clock(rows: list[dict]) -> np.ndarray:
+    """(epochs,) wall seconds from the start of a run to the end of each epoch, compile
+    included; `wall_s` starts again in a resumed process, so each stretch adds to the last."""
+    by_epoch = sorted({r["epoch"]: r["wall_s"] for r in rows}.items())
+    out, offset, last = [], 0.0, 0.0
+    for _, wall in by_epoch:
+        offset += last if wall < last else 0.0
+        out.append(offset + wall)
+        last = wall
+    return np.asarray(out)
+
+
+def wall_table(found, peers) -> list[list[str]]:
+    """Rows (task, run, seeds at once, wall to LEVEL) for each of our cells (`_stored()`'s
+    list) and each peer group (`_peer_groups()`'s) that reaches LEVEL: the seconds on this machine's 2 cores until the epoch at
+    which the rolling mean first reaches it (ours: all the cell's seeds in one program;
+    a peer: one seed at a time, the mean over its seeds)."""
+    rows = []
+    for name, task, metrics in found:
+        hit = stats.first_reaching(stats.scores_from_rows(metrics).mean(axis=0), LEVEL)
+        if hit is not None:
+            seeds = len({r["seed"] for r in metrics})
+            rows.append([ENVS[task], name, f"{seeds} at once", _minutes(clock(metrics)[hit - 1])])
+    for label, task, _, s, walls in peers:
+        hit = stats.first_reaching(s.mean(axis=0), LEVEL)
+        if hit is not None:
+            rows.append(
+                [ENVS[task], label, "1 at a time", _minutes(float(np.mean(walls[:, hit - 1])))]
+            )
+    return rows
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds / 60:.1f} min"
 
 
 def peer_cells(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray]]:
     """(label, task, env steps per epoch, (seeds, epochs) success) of each group of rows of
     the same settings in benchmarks/results/peer_sb3_fetch.jsonl (a seed's row: its curve)."""
+    return [group[:4] for group in _peer_groups(path)]
+
+
+def _peer_groups(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray, np.ndarray]]:
+    """`peer_cells` with each group's (seeds, epochs) wall seconds since its seed started."""
     if not path.exists():
         return []
     groups: dict[tuple, list[dict]] = {}
@@ -68,11 +121,13 @@ def peer_cells(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray]]:
         groups.setdefault((*settings, row["steps"]), []).append(row)
     out = []
     for (task, algo, net, batch, _), rows in groups.items():
-        curves = [[p["eval_success"] for p in r["curve"]] for r in sorted(rows, key=_seed)]
+        rows = sorted(rows, key=_seed)
+        curves = [[p["eval_success"] for p in r["curve"]] for r in rows]
+        walls = [[p["wall_s"] for p in r["curve"]] for r in rows]
         per_epoch = rows[0]["curve"][0]["env_steps"]
         name = algo.removeprefix("sb3_").removesuffix("_her").upper()
         label = f"SB3 {name}+HER ({len(net)} x {net[0]}, batch {batch})"
-        out.append((label, task, per_epoch, np.asarray(curves, float)))
+        out.append((label, task, per_epoch, np.asarray(curves, float), np.asarray(walls, float)))
     return out
 
 
@@ -107,7 +162,7 @@ def _reach(scores: np.ndarray, per_epoch: int) -> str:
     return f"never (budget {budget:,})" if hit is None else f"{hit * per_epoch:,}"
 
 
-LIBRARY = Path("experiments/skill_library_fetch/manifest.json")
+LIBRARY = CHECKOUT / default_dir("fetch") / "manifest.json"
 """The skill library built on Fetch (`make skills ROBOT=fetch`)."""
 
 
@@ -144,7 +199,7 @@ def library_table(path: Path = LIBRARY) -> list[str]:
     total = build_env_steps(m)
     header = ["skill", "success", "memory cm", "model cm", "goal cm", "classifier AUC"]
     return [
-        f"The skill library of Fetch (`{path.parent}`, built at `{m['commit'][:7]}`): the "
+        f"The skill library of Fetch (`{_shown(path.parent)}`, built at `{m['commit'][:7]}`): the "
         "skills' success on 200 fresh episodes of their own starts, and Table 5.1's held-out "
         'terminal errors with the trivial predictor ("the run ends at its goal", goal cm) '
         f"beside them; its build took {total:,} env steps (skill training and data "
@@ -155,13 +210,19 @@ def library_table(path: Path = LIBRARY) -> list[str]:
     ]
 
 
+def _shown(path: Path) -> Path:
+    """`path` as the report prints it: from the checkout's root when it lies inside."""
+    return path.relative_to(CHECKOUT) if path.is_relative_to(CHECKOUT) else path
+
+
 def _last(scores: np.ndarray) -> str:
     return "{:.2f} [{:.2f}, {:.2f}]".format(*stats.summarize(scores).last)
 
 
 def section(figure_path: Path, draw: bool = True) -> list[str]:
     """The markdown (and, with `draw`, the figure at `figure_path`)."""
-    ours = stored_cells()
+    found, groups = _stored(), _peer_groups()
+    ours = stored_cells(found)
     rows = [
         [
             ENVS[task],
@@ -196,7 +257,7 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
         "",
         *table(["env", "method (source)", "setting", f"env steps to {LEVEL}"], theirs),
     ]
-    peers = peer_cells()
+    peers = [group[:4] for group in groups]
     if peers:
         lines += [
             "",
@@ -214,6 +275,16 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
             ),
             "",
             *peer_comparison(ours, peers),
+        ]
+    walls = wall_table(found, groups)
+    if walls:
+        lines += [
+            "",
+            f"Wall time to {LEVEL} on these 2 cores, compile included, for the runs above that "
+            "reach it (ours train all of a cell's seeds in one program; SB3 trains one seed at "
+            "a time).",
+            "",
+            *table(["task", "run", "seeds", f"wall time to {LEVEL}"], walls),
         ]
     lines += shortfalls(ours)
     if ours and figure([*ours, *peers], figure_path, draw) is not None:

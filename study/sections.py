@@ -3,8 +3,6 @@ cells beside the cells they are compared with."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from mjx_skills.sweeps.cell import Cell
 from study import faster, two_cubes
 from study.claims import LABEL, MEASURED, ci, compare, measured, reach
@@ -22,11 +20,13 @@ def table(header: list[str], rows: list[list[str]]) -> list[str]:
 
 def table5_1() -> list[str]:
     """Table 5.1 from the committed libraries' manifests (the default and the thesis's)."""
+    from mjx_skills.core.paths import CHECKOUT
     from mjx_skills.methods import THESIS_LIBRARY
     from mjx_skills.skills.library import read_manifest
+    from mjx_skills.skills.registry import DEFAULT_DIR
     from mjx_skills.skills.table import THESIS_CM
 
-    libs = [("default", Path("experiments/skill_library")), ("thesis preset", Path(THESIS_LIBRARY))]
+    libs = [("default", CHECKOUT / DEFAULT_DIR), ("thesis preset", CHECKOUT / THESIS_LIBRARY)]
     rows, found = [], []
     for label, path in libs:
         if not (path / "manifest.json").exists():

@@ -214,14 +214,15 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
             f"it: pass --{group}.library {' or '.join(libraries_of(robot))} (the "
             f"{robot.capitalize()} skills) and {flag} {default_dir(robot)}, which `python -m "
             f"mjx_skills.build_library --robot {robot}` builds (`make skills ROBOT={robot}`)"
+            + (f"; `--preset {robot}` sets both" if robot in PRESETS else "")
         )
     flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)
     raise ValueError(
         f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run: no "
-        f"command builds a {robot.capitalize()} skill library yet (`python -m "
+        f"skills of the {robot.capitalize()} robot are registered (`python -m "
         f"mjx_skills.build_library` trains the skill envs {', '.join(skills_of(built_for))}, which are "
-        f"{built_for.capitalize()}'s; a {robot.capitalize()} library is future work, issue "
-        f"#45): train {task} with {flat}"
+        f"{built_for.capitalize()}'s; docs/extending.md says how to register skills): train "
+        f"{task} with {flat}"
     )
 
 
@@ -318,6 +319,12 @@ THESIS_LIBRARY = "experiments/skill_library_thesis"
 """The thesis preset's library: models and memories anchored at the start state
 (`python -m mjx_skills.build_library --anchor start --out experiments/skill_library_thesis`)."""
 
+FETCH_LIBRARY = "experiments/skill_library_fetch"
+"""The skills built on Fetch (`python -m mjx_skills.build_library --robot fetch`)."""
+FETCH_SEARCH = {"transit_height": (0.05, 0.07)}
+"""The search's transit goals on Fetch: 5-7 cm above the block, since Fetch's closed fingertips
+reach 5 cm below the grip (Baxter's 3-4.5 cm press them into the block; docs/results.md)."""
+
 PRESETS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
     "default": {},
     "thesis": {
@@ -332,7 +339,19 @@ PRESETS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
         },
     },
 }
+PRESETS["fetch"] = {
+    name: {
+        spec.library_group: {
+            "library": "SL1_fetch",
+            "library_dir": FETCH_LIBRARY,
+            **(FETCH_SEARCH if spec.library_group == "search" else {}),
+        }
+    }
+    for name, spec in METHODS.items()
+    if spec.library_group is not None
+}
 """Named option sets by method and group, applied over the defaults (explicit flags win).
+'fetch': the library methods with the skills built on Fetch, for the Fetch tasks.
 'thesis': each method as the thesis formulates it, where our defaults depart from it by
 measurement (field by field, with what they change: docs/results.md, "Our defaults against the thesis's formulation"). DDPG+HER
 has no departure of formulation (its hyperparameters: `DDPGConfig`)."""

@@ -8,7 +8,10 @@ digest): a rebuilt library makes new cells. The store, `experiments/results/cell
 is committed: `definition.json` and the run's `metrics.jsonl` (one line per epoch per seed).
 A sweep takes a stored cell whose definition matches instead of training it, so an
 interrupted campaign picks up from the committed cells on a fresh clone; a stored cell of
-the same name and another definition is refused with the fields that differ.
+the same name and another definition is refused with the fields that differ. A run
+directory is taken for a cell under the same rule: its config.json and the library it
+started with (`runner.LIBRARY`, recorded when the run began, not when it is saved) must
+match, so a run trained before a skill's code changed is never stored under the new code.
 
 `checksums.json` (written last, before the cell's directory is renamed into place) holds
 the SHA-256 of the cell's other files; a stored cell is verified against it whenever it is
@@ -60,23 +63,10 @@ def _results_part(config: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def library_provenance(config: dict[str, Any]) -> dict[str, Any] | None:
-    """The commit and scenes' digest of the library a config's method reads (None: none),
-    and for a library of the user's its skills' definitions (`registry.fingerprint`)."""
-    from mjx_skills.skills.library import read_manifest
-    from mjx_skills.skills.registry import fingerprint
-
-    for group in config.get("options", {}).values():
-        if "library_dir" in group:
-            manifest = read_manifest(Path(group["library_dir"]))
-            out = {"commit": manifest.get("commit"), "scenes": manifest.get("scenes")}
-            skills = fingerprint(group["library"])  # a library of the user's skills
-            return out if skills is None else {**out, "skills": skills}
-    return None
-
-
 def definition(cell) -> dict[str, Any]:
     """What makes a cell's results: its run config and its library's provenance."""
+    from mjx_skills.skills.provenance import library_provenance
+
     config = _results_part(run_config(cell.run_args(out="", progress=False)))
     return {"config": config, "library": library_provenance(config)}
 
@@ -141,9 +131,20 @@ def _unread(config: dict[str, Any]) -> set[str]:
 
 
 def run_differences(run_dir: Path, cell) -> list[str]:
-    """How a run directory's config.json differs from what `cell` would write ([] = same)."""
-    raw = read_json(Path(run_dir) / "config.json")
-    return _config_differences(_results_part(raw), definition(cell)["config"])
+    """How a run directory differs from what `cell` would write ([] = same): its config.json,
+    and the library it started with (`runner.LIBRARY`; a run that searched with a library but
+    recorded none started before runs recorded it, and is a difference)."""
+    from mjx_skills.training.runner import LIBRARY
+
+    new = definition(cell)
+    diff = _config_differences(
+        _results_part(read_json(Path(run_dir) / "config.json")), new["config"]
+    )
+    if new["library"] is None:
+        return diff
+    if not (Path(run_dir) / LIBRARY).exists():
+        return [*diff, "library: not recorded by the run (it started before runs recorded it)"]
+    return diff + differences(read_json(Path(run_dir) / LIBRARY), new["library"], "library")
 
 
 def stored(cell, store: Path = STORE) -> Path | None:

@@ -1,7 +1,7 @@
 """The host loop: call the jitted epoch, log, draw progress, checkpoint, resume.
 
-A run lives in OUT/<task>/<method>/<timestamp>/ with config.json, metrics.jsonl (one line
-per epoch per seed), TensorBoard events and checkpoints/. A run directory is never reused:
+A run lives in OUT/<task>/<method>/<timestamp>/ with config.json, library.json (the skill
+library it started with, `LIBRARY`), metrics.jsonl (one line per epoch per seed), TensorBoard events and checkpoints/. A run directory is never reused:
 `--resume RUN_DIR` continues that run where its last checkpoint left it.
 """
 
@@ -24,6 +24,7 @@ from mjx_skills.core.files import read_json, write_json_atomic
 from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.precision import require_float32
 from mjx_skills.envs.registry import check_name
+from mjx_skills.skills.provenance import library_provenance
 from mjx_skills.training.checkpoint import Checkpoints
 from mjx_skills.training.epoch import build, committed, host_metrics
 from mjx_skills.training.interrupt import deferred_stop
@@ -81,6 +82,19 @@ def config_dict(args: RunArgs) -> dict[str, Any]:
         "env": dataclasses.asdict(args.env),
         "options": groups,
     }
+
+
+LIBRARY = "library.json"
+"""RUN_DIR/LIBRARY: the provenance of the skill library a new run started with
+(`provenance.library_provenance`), so a sweep never takes a run made with another library
+(or other skill code) for its cell; absent when the method reads no library."""
+
+
+def save_library(run_dir: Path, args: RunArgs) -> None:
+    """Record the library a new run starts with in RUN_DIR/LIBRARY (nothing if it reads none)."""
+    library = library_provenance(config_dict(args))
+    if library is not None:
+        write_json_atomic(run_dir / LIBRARY, library, indent=1, sort_keys=True)
 
 
 def save_config(run_dir: Path, args: RunArgs) -> None:
@@ -165,6 +179,7 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
     check_track(args.train.track)  # wandb missing: refused before a run directory is made
     if run_dir is None:
         run_dir = new_run_dir(args)
+        save_library(run_dir, args)
         save_config(run_dir, args)
     cfg = args.train
     env, _, epoch_fn, carry = build(args.method, cfg, args.env, options, aux)

@@ -335,6 +335,24 @@ def test_baxter_options_and_library_methods_are_refused():
     assert gymnasium.spec(gym_id("fetch_push")).entry_point.endswith("gym_fetch:FetchGymEnv")
 
 
+def test_the_fetch_preset_points_every_library_method_at_the_fetch_skills():
+    """`--preset fetch` (what `make train TASK=fetch_...` passes) gives each library method the
+    Fetch library and the search the transit heights the Fetch cells ran with, so a Fetch
+    task trains without naming the library; the refusal without it names the preset."""
+    from mjx_skills import methods
+    from mjx_skills.sweeps.experiments import load_experiment
+
+    for method in ("ddpg_her_sl", "pas", "mpas", "ddpg_her_sl_fast"):
+        options = methods.preset_options(method, "fetch")
+        methods.check_task(method, "fetch_pick_and_place", options)
+        with pytest.raises(ValueError, match="--preset fetch` sets both"):
+            methods.check_task(method, "fetch_pick_and_place")
+    (cell,) = load_experiment("fetch_pick_and_place_sl").cells()
+    stored = cell.run_args(out="", progress=False).full_options()["search"]
+    assert methods.preset_options("ddpg_her_sl", "fetch")["search"] == stored
+    assert methods.preset_options("ddpg_her", "fetch") == methods.preset_options("ddpg_her")
+
+
 def test_substeps_and_velocity_scale_are_theirs():
     env = programs("fetch_reach")[0]
     assert N_SUBSTEPS * env.model.opt.timestep == pytest.approx(env.dt) == pytest.approx(0.04)

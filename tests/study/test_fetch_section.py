@@ -75,3 +75,30 @@ def test_a_cell_beside_a_published_figure_says_its_seeds_and_its_librarys_cost()
     flat = fetch._caveats("fetch_push_her")
     assert "tuning seeds 0-2" in flat and "library" not in flat
     assert fetch._caveats("not_an_experiment") == ""
+
+
+def test_the_wall_clock_of_a_resumed_run_adds_its_stretches():
+    # epochs 1-3 in one process, 4-5 after a resume (its clock starts again)
+    rows = [
+        {"epoch": e, "seed": s, "wall_s": w}
+        for e, w in enumerate([10, 20, 30, 5, 15], 1)
+        for s in (0, 1)
+    ]
+    np.testing.assert_allclose(fetch.clock(rows), [10, 20, 30, 35, 45])
+
+
+def test_the_wall_time_to_the_level_is_read_at_the_epoch_that_reaches_it():
+    curve = [0.0, 0.2, 0.95, 0.95, 0.95, 0.95, 0.95, 1.0]  # rolling mean reaches 0.9 at epoch 7
+    ours = [
+        {"epoch": e, "seed": s, "wall_s": 60.0 * e, "eval_success": v, "env_steps": 800 * e}
+        for e, v in enumerate(curve, 1)
+        for s in (0, 1, 2)
+    ]
+    never = [{**r, "eval_success": 0.0} for r in ours]
+    walls = np.tile(np.arange(1, 9) * 120.0, (2, 1))
+    theirs = [("SB3 X", "fetch_push", 800, np.tile(curve, (2, 1)), walls)]
+    rows = fetch.wall_table([("mine", "fetch_push", ours), ("flat", "fetch_push", never)], theirs)
+    assert rows == [
+        ["FetchPush", "mine", "3 at once", "7.0 min"],
+        ["FetchPush", "SB3 X", "1 at a time", "14.0 min"],
+    ]

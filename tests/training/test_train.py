@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -226,6 +227,29 @@ def test_cli_forms_parse_to_the_same_run():
     default = parse(["--task", "transit", "--ddpg.actor-lr", "3e-4", "--physics=mjx"])
     assert default.method == "ddpg_her_sl" and default.options["ddpg"] == sub.options["ddpg"]
     assert (default.train, default.env) == (sub.train, sub.env)
+
+
+@pytest.mark.parametrize(
+    ("task", "library"), [("pick_move", "SL1"), ("fetch_pick_and_place", "SL1_fetch")]
+)
+def test_make_train_gives_a_task_the_skills_of_its_robot(task, library):
+    """`make train TASK=...` runs the CLI with the library of the task's robot (`--preset
+    fetch` on a Fetch task), and a preset given twice is refused, not silently dropped."""
+    import shlex
+    import subprocess
+
+    from mjx_skills.train import parse
+
+    root = Path(__file__).parents[2]
+    dry = subprocess.run(
+        ["make", "-n", "-s", "train", f"TASK={task}"], cwd=root, capture_output=True, text=True
+    ).stdout
+    (line,) = [x for x in dry.splitlines() if "-m mjx_skills.train" in x]
+    argv = shlex.split(line.partition("-m mjx_skills.train")[2])
+    args = parse(argv)
+    assert args.train.task == task and args.options["search"].library == library
+    with pytest.raises(SystemExit, match="--preset given twice"):
+        parse([*argv, "--preset", "thesis", "--preset=thesis"])
 
 
 def test_the_help_lists_the_tasks_the_early_flags_and_one_example_a_line(capsys):
