@@ -15,11 +15,10 @@ import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import read_jsonl
-from mjx_skills.core.paths import CHECKOUT
-from mjx_skills.skills.registry import default_dir
 from mjx_skills.sweeps import cells
-from mjx_skills.sweeps.experiment_file import names
+from mjx_skills.sweeps.experiment_file import names, raw
 from mjx_skills.sweeps.experiments import load_experiment
+from study.fetch_library import LIBRARY, build_env_steps, library_table
 from study.sections import table
 
 PUBLISHED = Path(__file__).parent / "published" / "fetch_her.toml"
@@ -42,8 +41,11 @@ def published() -> list[dict]:
 
 
 def _stored() -> list[tuple[str, str, list[dict]]]:
-    """(experiment, task, metrics rows) of every stored cell of an experiment on a Fetch
-    task, in experiment order."""
+    """(label, task, metrics rows) of every stored cell of an experiment on a Fetch task, in
+    experiment order; the label is the experiment's name, with the method's label after a
+    colon where the experiment runs several methods."""
+    from mjx_skills.methods import get
+
     out = []
     for name in names():
         exp = load_experiment(name)
@@ -51,8 +53,9 @@ def _stored() -> list[tuple[str, str, list[dict]]]:
             continue
         for cell in exp.cells():
             where = cells.stored(cell, cells.STORE)
+            label = f"{name}: {get(cell.method).label}" if len(exp.methods) > 1 else name
             if where is not None:
-                out.append((name, cell.task, cells.read_stored_metrics(where)))
+                out.append((label, cell.task, cells.read_stored_metrics(where)))
     return out
 
 
@@ -162,59 +165,6 @@ def _reach(scores: np.ndarray, per_epoch: int) -> str:
     return f"never (budget {budget:,})" if hit is None else f"{hit * per_epoch:,}"
 
 
-LIBRARY = CHECKOUT / default_dir("fetch") / "manifest.json"
-"""The skill library built on Fetch (`make skills ROBOT=fetch`)."""
-
-
-def build_env_steps(manifest: dict) -> int:
-    """Env steps a library's build took: its skills' training and data collection (0 for a
-    manifest that does not record them)."""
-    steps = manifest.get("env_steps", {})
-    return sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
-
-
-def library_table(path: Path = LIBRARY) -> list[str]:
-    """Table 5.1's columns for the Fetch library (no thesis figures: the thesis has no
-    Fetch) with the trivial goal predictor beside them, each skill's success, and the env
-    steps its build took: skill training and data collection."""
-    if not path.exists():
-        return ["No skill library of Fetch is built yet (`make skills ROBOT=fetch`)."]
-    m = json.loads(path.read_text())
-    steps = m.get("env_steps", {})
-    rows = []
-    for name, e in m["models"].items():
-        train, collect = steps.get("train", {}).get(name), steps.get("collect", {}).get(name)
-        rows.append(
-            [
-                name,
-                f"{m['skill_success'][name]:.3f}",
-                f"{e['memory_error_cm']:.2f}",
-                f"{e['model_error_cm']:.2f}",
-                f"{e['goal_error_cm']:.2f}",
-                f"{e['classifier_auc']:.3f}",
-                f"{train:,}" if train is not None else "-",
-                f"{collect:,}" if collect is not None else "-",
-            ]
-        )
-    total = build_env_steps(m)
-    header = ["skill", "success", "memory cm", "model cm", "goal cm", "classifier AUC"]
-    return [
-        f"The skill library of Fetch (`{_shown(path.parent)}`, built at `{m['commit'][:7]}`): the "
-        "skills' success on 200 fresh episodes of their own starts, and Table 5.1's held-out "
-        'terminal errors with the trivial predictor ("the run ends at its goal", goal cm) '
-        f"beside them; its build took {total:,} env steps (skill training and data "
-        "collection; evaluation and the starts' placement not counted), a one-time cost "
-        "shared by every Fetch task the library serves.",
-        "",
-        *table([*header, "training env steps", "collection env steps"], rows),
-    ]
-
-
-def _shown(path: Path) -> Path:
-    """`path` as the report prints it: from the checkout's root when it lies inside."""
-    return path.relative_to(CHECKOUT) if path.is_relative_to(CHECKOUT) else path
-
-
 def _last(scores: np.ndarray) -> str:
     return "{:.2f} [{:.2f}, {:.2f}]".format(*stats.summarize(scores).last)
 
@@ -311,11 +261,20 @@ def shortfalls(ours) -> list[str]:
         reached = [(hit * per, name) for hit, per, name in reached if hit is not None]
         theirs = f"{best['method']} ({best['source']}) reaches it at {best['env_steps']:,}"
         if reached:
-            steps, name = min(reached)
+            # A headline on fresh seeds is the figure we stand by, even where a tuning cell
+            # reached the level sooner.
+            steps, name = min([r for r in reached if _fresh(r[1])] or reached)
             verdict = "ahead of" if steps < best["env_steps"] else "behind"
+            total = steps + library_cost(name)
+            counted = "ahead of" if total < best["env_steps"] else "behind"
+            with_build = (
+                f" Counting the library's build, {total:,} env steps: {counted} it."
+                if total != steps
+                else ""
+            )
             out.append(
                 f"On {env}, {name} reaches {LEVEL} at {steps:,} env steps; {theirs}: "
-                f"we are {verdict} the published DDPG+HER.{_caveats(name)}"
+                f"we are {verdict} the published DDPG+HER.{_caveats(name)}{with_build}"
             )
             continue
         name, per, s = max(mine, key=lambda m: stats.summarize(m[2]).last[0])
@@ -327,12 +286,18 @@ def shortfalls(ours) -> list[str]:
     return ["", *out] if out else []
 
 
+def _fresh(name: str) -> bool:
+    """The cell labelled `name` is a headline's: it ran on seeds no tuning run used."""
+    name = name.split(":")[0]
+    return name in names() and raw(name).get("role") == "headline"
+
+
 def _caveats(name: str) -> str:
     """What a reader must know of experiment `name`'s cell beside a published figure: the
     seeds it ran on if they were tuning seeds, and the skill library's one-time cost if a
-    library method ran."""
-    from mjx_skills.methods import get
+    library method ran (`name`: a cell's label, its experiment before any colon)."""
 
+    name = name.split(":")[0]
     if name not in names():
         return ""
     exp = load_experiment(name)
@@ -340,15 +305,29 @@ def _caveats(name: str) -> str:
     if exp.group == "tuning":
         out += (
             f" That cell ran on the tuning seeds {exp.seed}-{exp.seed + exp.seeds - 1} "
-            "(no fresh-seed headline yet)."
+            "(no fresh-seed headline reaches the level yet)."
         )
-    if any(get(m).library_group for m in exp.methods) and LIBRARY.exists():
-        total = build_env_steps(json.loads(LIBRARY.read_text()))
+    elif _fresh(name):
+        out += f" That cell is a headline's: seeds {exp.seed}-{exp.seed + exp.seeds - 1}, fresh."
+    if library_cost(name):
         out += (
-            f" It uses the skill library of Fetch, whose build took {total:,} env steps "
-            "once, not counted in its curve."
+            f" It uses the skill library of Fetch, whose build took {library_cost(name):,} env "
+            "steps once, not counted in its curve."
         )
     return out
+
+
+def library_cost(name: str) -> int:
+    """Env steps the build of the skill library took that the cell labelled `name` used (0:
+    it uses none, or none is built)."""
+    from mjx_skills.methods import get
+
+    name = name.split(":")[0]
+    if name not in names() or not LIBRARY.exists():
+        return 0
+    if not any(get(m).library_group for m in load_experiment(name).methods):
+        return 0
+    return build_env_steps(json.loads(LIBRARY.read_text()))
 
 
 def figure(ours, out: Path, draw: bool = True) -> Path | None:

@@ -1,0 +1,64 @@
+"""The Fetch section's table of the skill library built on Fetch (`make skills ROBOT=fetch`):
+Table 5.1's columns with the trivial goal predictor beside them, each skill's success, and
+the env steps its build took."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from mjx_skills.core.paths import CHECKOUT
+from mjx_skills.skills.registry import default_dir
+from study.sections import table
+
+LIBRARY = CHECKOUT / default_dir("fetch") / "manifest.json"
+"""The skill library built on Fetch (`make skills ROBOT=fetch`)."""
+
+
+def build_env_steps(manifest: dict) -> int:
+    """Env steps a library's build took: its skills' training and data collection (0 for a
+    manifest that does not record them)."""
+    steps = manifest.get("env_steps", {})
+    return sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
+
+
+def library_table(path: Path = LIBRARY) -> list[str]:
+    """Table 5.1's columns for the Fetch library (no thesis figures: the thesis has no
+    Fetch) with the trivial goal predictor beside them, each skill's success, and the env
+    steps its build took: skill training and data collection."""
+    if not path.exists():
+        return ["No skill library of Fetch is built yet (`make skills ROBOT=fetch`)."]
+    m = json.loads(path.read_text())
+    steps = m.get("env_steps", {})
+    rows = []
+    for name, e in m["models"].items():
+        train, collect = steps.get("train", {}).get(name), steps.get("collect", {}).get(name)
+        rows.append(
+            [
+                name,
+                f"{m['skill_success'][name]:.3f}",
+                f"{e['memory_error_cm']:.2f}",
+                f"{e['model_error_cm']:.2f}",
+                f"{e['goal_error_cm']:.2f}",
+                f"{e['classifier_auc']:.3f}",
+                f"{train:,}" if train is not None else "-",
+                f"{collect:,}" if collect is not None else "-",
+            ]
+        )
+    total = build_env_steps(m)
+    header = ["skill", "success", "memory cm", "model cm", "goal cm", "classifier AUC"]
+    return [
+        f"The skill library of Fetch (`{_shown(path.parent)}`, built at `{m['commit'][:7]}`): the "
+        "skills' success on 200 fresh episodes of their own starts, and Table 5.1's held-out "
+        'terminal errors with the trivial predictor ("the run ends at its goal", goal cm) '
+        f"beside them; its build took {total:,} env steps (skill training and data "
+        "collection; evaluation and the starts' placement not counted), a one-time cost "
+        "shared by every Fetch task the library serves.",
+        "",
+        *table([*header, "training env steps", "collection env steps"], rows),
+    ]
+
+
+def _shown(path: Path) -> Path:
+    """`path` as the report prints it: from the checkout's root when it lies inside."""
+    return path.relative_to(CHECKOUT) if path.is_relative_to(CHECKOUT) else path
