@@ -18,6 +18,7 @@ from mjx_skills.core.files import read_jsonl
 from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.experiment_file import names, raw
 from mjx_skills.sweeps.experiments import load_experiment
+from study import fetch_ranking
 from study.fetch_library import LIBRARY, build_env_steps, library_table
 from study.sections import table
 
@@ -236,6 +237,7 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
             "",
             *table(["task", "run", "seeds", f"wall time to {LEVEL}"], walls),
         ]
+    lines += fetch_ranking.section()
     lines += shortfalls(ours)
     if ours and figure([*ours, *peers], figure_path, draw) is not None:
         lines += ["", "![The Fetch runs over env steps](figures/fetch.png)"]
@@ -351,21 +353,21 @@ def figure(ours, out: Path, draw: bool = True) -> Path | None:
             style = "--" if name.startswith("SB3") else "-"  # a peer's run (`peer_cells`)
             ax.plot(x, s.mean(axis=0), style, lw=1.3, color=f"C{i}", label=name)
             ax.fill_between(x, s.min(axis=0), s.max(axis=0), color=f"C{i}", alpha=0.15, lw=0)
-        for f in published():
-            if f["env"].startswith(ENVS[task] + "-"):
-                ax.plot(f["env_steps"], LEVEL, "k^", ms=6)
-                ax.annotate(
-                    f["method"],
-                    (f["env_steps"], LEVEL),
-                    fontsize=6,
-                    xytext=(3, -10),
-                    textcoords="offset points",
-                )
+        theirs = [f for f in published() if f["env"].startswith(ENVS[task] + "-")]
+        for k, f in enumerate(sorted(theirs, key=lambda f: f["env_steps"])):
+            ax.plot(f["env_steps"], LEVEL, "k^", ms=6)
+            ax.annotate(  # labels stacked downwards: close points do not overprint
+                f["method"],
+                (f["env_steps"], LEVEL),
+                fontsize=6,
+                xytext=(3, -10 - 8 * k),
+                textcoords="offset points",
+            )
         ax.set(title=ENVS[task], xlabel="env steps", ylim=(-0.02, 1.02))
         ax.set_xlim(0, ax.get_xlim()[1] * 1.12)  # room for the published points' labels
         ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / 1000:g}k"))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=7, loc="center right")  # clear of the curves on each panel
     axes[0][0].set_ylabel("eval success (20 episodes)")
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)

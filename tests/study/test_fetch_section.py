@@ -123,3 +123,21 @@ def test_beside_a_published_figure_the_fresh_seed_headline_is_the_figure_we_stan
     assert f"Counting the library's build, {124_000 + fetch.library_cost(ours[1][0]):,}" in line
     (line,) = [x for x in fetch.shortfalls(ours[:1]) if x.startswith("On FetchPickAndPlace")]
     assert "reaches 0.9 at 44,000" in line and "ran on the tuning seeds 0-2" in line
+
+
+def test_a_rank_holds_only_when_the_upper_interval_clears_the_lower():
+    from study import fetch_ranking
+
+    rng = np.random.default_rng(0)
+    high, low = 0.8 + 0.05 * rng.random((3, 125)), 0.1 + 0.05 * rng.random((3, 125))
+    spread = np.stack([np.full(125, 0.0), np.full(125, 0.5), np.full(125, 1.0)])
+    assert fetch_ranking.verdict(high, low) == "holds"
+    assert fetch_ranking.verdict(low, high) == "reversed"
+    assert fetch_ranking.verdict(spread, np.full((3, 125), 0.5)) == "not shown"
+    found = {"ddpg_her_sl": high, "pas": low, "mpas": spread, "ddpg_her": low * 0}
+    lines = fetch_ranking.section(found)
+    assert lines[-1] == (
+        "DDPG+HER+SL above PAS: holds; DDPG+HER+SL above MPAS: not shown; "
+        "PAS above DDPG+HER: holds; MPAS above DDPG+HER: not shown."
+    )
+    assert fetch_ranking.section({k: v for k, v in found.items() if k != "pas"}) == []
