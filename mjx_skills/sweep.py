@@ -28,7 +28,9 @@ or a run made by another definition of the cell is refused with the fields that 
 A cell whose epochs grew trains on from the run of its shorter budget in the same sweep
 directory (copied; the shorter run is left as it was) instead of from scratch. When every cell is done the results are aggregated into
 RESULTS/NAME.csv (`--results`, default the checkout's experiments/results/) (mean and std of eval success over seeds per epoch) and NAME.jsonl
-(every seed's metrics); existing results are not overwritten without --overwrite.
+(every seed's metrics). Existing results elsewhere are not overwritten without --overwrite;
+a training experiment's NAME.csv/.jsonl in the checkout's experiments/results/ are derived
+files (git-ignored: every cell they come from is in the store), replaced without asking.
 """
 
 from __future__ import annotations
@@ -131,9 +133,12 @@ def run_sweep(
 ) -> tuple[Path, ...]:
     """Run every cell of `exp` (taking the ones in `store`, skipping finished ones) and
     write its results into `results` -> their files (NAME.csv and NAME.jsonl; a library
-    experiment: NAME.csv). SystemExit if NAME.csv exists and not `overwrite`."""
+    experiment: NAME.csv). SystemExit if NAME.csv exists and not `overwrite`, unless it is
+    a training experiment's derived file in the checkout's RESULTS (its cells in STORE)."""
     csv_path = results / f"{exp.name}.csv"
-    if csv_path.exists() and not overwrite:
+    here = [Path(p).resolve() for p in (results, store, RESULTS, STORE)]
+    derived = exp.kind == "train" and here[:2] == here[2:]
+    if csv_path.exists() and not (overwrite or derived):
         raise SystemExit(f"error: {csv_path} exists; pass --overwrite to replace it")
     cells = exp.cells()
     dirs = [sweep_dir / c.name for c in cells]

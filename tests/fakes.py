@@ -84,3 +84,10 @@ class EncodingLibrary(KnownLibrary):
 
     def policy_action(self, skill, obs, goal):
         return jnp.concatenate([skill[:, None] / 10.0, goal], axis=-1)
+
+
+def flip_byte(path, offset: int | None = None) -> None:
+    """Invert one byte of the file `path` (its middle by default): damage to detect."""
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2 if offset is None else offset] ^= 0xFF
+    path.write_bytes(bytes(data))

@@ -132,8 +132,12 @@ def test_the_docs_cite_only_what_exists():
     from mjx_skills.core import plugins
 
     root = Path(__file__).resolve().parents[1]
-    pages = [root / "README.md", root / "pyproject.toml", root / "Makefile",
-             *sorted((root / "docs").glob("*.md"))]  # fmt: skip
+    pages = [
+        root / "README.md",
+        root / "pyproject.toml",
+        root / "Makefile",
+        *sorted((root / "docs").glob("*.md")),
+    ]
     missing = []
     for page in pages:
         for kind, name in _cited(page.read_text()):

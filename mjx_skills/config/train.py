@@ -13,8 +13,9 @@ class TrainConfig:
 
     task: str = "pick_move"
     """Env to train on (see mjx_skills.envs.ENVS; checked where the env is made)."""
-    epochs: int = 50
-    """Epochs to train; 1 epoch = envs x cycles episodes of interaction (thesis: 16)."""
+    epochs: int = 100
+    """Epochs to train; 1 epoch = envs x cycles episodes of interaction (thesis: 16). The
+    default is the thesis's figures' budget, as `make train` (EPOCHS=100)."""
     seeds: int = 1
     """Independent seeds trained in one program (a vmap axis over the whole run)."""
     seed: int = 0

@@ -118,19 +118,3 @@ def check_digest(lib: Any, manifest: dict[str, Any], directory: Path) -> None:
             f"{directory}: the library's arrays are damaged (their digest differs from the "
             "manifest's); restore the directory or rebuild it"
         )
-
-
-def library_provenance(config: dict[str, Any]) -> dict[str, Any] | None:
-    """The commit and scenes' digest of the library a run config's method reads (None: it
-    reads none), and for a library of the user's its skills' definitions
-    (`registry.fingerprint`: their settings and a digest of their source)."""
-    from mjx_skills.skills.library import read_manifest
-    from mjx_skills.skills.registry import fingerprint
-
-    for group in config.get("options", {}).values():
-        if "library_dir" in group:
-            manifest = read_manifest(Path(group["library_dir"]))
-            out = {"commit": manifest.get("commit"), "scenes": manifest.get("scenes")}
-            skills = fingerprint(group["library"])  # a library of the user's skills
-            return out if skills is None else {**out, "skills": skills}
-    return None

@@ -65,7 +65,7 @@ def _results_part(config: dict[str, Any]) -> dict[str, Any]:
 
 def definition(cell) -> dict[str, Any]:
     """What makes a cell's results: its run config and its library's provenance."""
-    from mjx_skills.skills.provenance import library_provenance
+    from mjx_skills.skills.run_provenance import library_provenance
 
     config = _results_part(run_config(cell.run_args(out="", progress=False)))
     return {"config": config, "library": library_provenance(config)}

@@ -24,7 +24,7 @@ from mjx_skills.core.files import read_json, write_json_atomic
 from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.precision import require_float32
 from mjx_skills.envs.registry import check_name
-from mjx_skills.skills.provenance import library_provenance
+from mjx_skills.skills.run_provenance import library_provenance
 from mjx_skills.training.checkpoint import Checkpoints
 from mjx_skills.training.epoch import build, committed, host_metrics
 from mjx_skills.training.interrupt import deferred_stop
@@ -86,7 +86,7 @@ def config_dict(args: RunArgs) -> dict[str, Any]:
 
 LIBRARY = "library.json"
 """RUN_DIR/LIBRARY: the provenance of the skill library a new run started with
-(`provenance.library_provenance`), so a sweep never takes a run made with another library
+(`run_provenance.library_provenance`), so a sweep never takes a run made with another library
 (or other skill code) for its cell; absent when the method reads no library."""
 
 

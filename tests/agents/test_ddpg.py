@@ -304,8 +304,9 @@ def test_twin_critics_are_independent_heads_read_through_their_minimum():
     moves both heads."""
     twin = dataclasses.replace(CONFIG, critics=2, clip_target=False)
     batch = make_batch(jax.random.key(3))
-    state = ddpg.observe(ddpg.init(jax.random.key(0), OBS, GOAL, ACT, twin), batch["obs"],
-                         batch["goal"])  # fmt: skip
+    state = ddpg.observe(
+        ddpg.init(jax.random.key(0), OBS, GOAL, ACT, twin), batch["obs"], batch["goal"]
+    )
 
     def head(params, i):  # head i of the ensemble, as one critic's parameters
         return {"params": {"MLP_0": params["params"][f"MLP_{i}"]}}
@@ -313,27 +314,34 @@ def test_twin_critics_are_independent_heads_read_through_their_minimum():
     qs, ys = [], []
     plain = dataclasses.replace(CONFIG, clip_target=False)
     for i in range(2):
-        single = state.replace(critic_params=head(state.critic_params, i),
-                               target_critic_params=head(state.target_critic_params, i))  # fmt: skip
+        single = state.replace(
+            critic_params=head(state.critic_params, i),
+            target_critic_params=head(state.target_critic_params, i),
+        )
         qs.append(ddpg.q_value(single, batch["obs"], batch["goal"], batch["action"], plain))
         ys.append(ddpg.td_target(single, batch, plain))
     assert float(jnp.mean(jnp.abs(qs[0] - qs[1]))) > 1e-3  # two inits, not one copied
     q = ddpg.q_value(state, batch["obs"], batch["goal"], batch["action"], twin)
     np.testing.assert_allclose(q, jnp.minimum(*qs), rtol=1e-3, atol=1e-4)
     # r + gamma min(Q1', Q2'): the smaller head's target, row by row
-    np.testing.assert_allclose(ddpg.td_target(state, batch, twin), jnp.minimum(*ys),
-                               rtol=1e-3, atol=1e-4)  # fmt: skip
+    np.testing.assert_allclose(
+        ddpg.td_target(state, batch, twin), jnp.minimum(*ys), rtol=1e-3, atol=1e-4
+    )
 
     new, metrics = jax.jit(functools.partial(ddpg.update, config=twin))(
         state, jax.tree.map(lambda x: x[None], batch)
     )
     # each head is fitted to the one shared target (not its own, nor the minimum to it)
     y = ddpg.td_target(state, batch, twin)
-    np.testing.assert_allclose(metrics["critic_loss"][0],
-                               sum(jnp.mean((q_i - y) ** 2) for q_i in qs), rtol=1e-3)  # fmt: skip
+    np.testing.assert_allclose(
+        metrics["critic_loss"][0], sum(jnp.mean((q_i - y) ** 2) for q_i in qs), rtol=1e-3
+    )
     for i in range(2):
-        moved = jax.tree.map(lambda a, b: float(jnp.max(jnp.abs(a - b))),
-                             head(new.critic_params, i), head(state.critic_params, i))  # fmt: skip
+        moved = jax.tree.map(
+            lambda a, b: float(jnp.max(jnp.abs(a - b))),
+            head(new.critic_params, i),
+            head(state.critic_params, i),
+        )
         assert max(jax.tree.leaves(moved)) > 0, f"head {i} did not move"
 
 

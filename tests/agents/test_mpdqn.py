@@ -61,8 +61,13 @@ def test_choices_keep_to_the_allowed_skills_even_exploring():
 
 def test_a_terminal_transition_is_not_bootstrapped():
     state = ddpg.init(jax.random.PRNGKey(0), 25, 3, 4, CFG)
-    batch = {"obs": jnp.ones((8, 25)), "next_obs": jnp.ones((8, 25)), "goal": jnp.zeros((8, 3)),
-             "action": jnp.zeros((8, 4)), "reward": -jnp.ones((8,))}  # fmt: skip
+    batch = {
+        "obs": jnp.ones((8, 25)),
+        "next_obs": jnp.ones((8, 25)),
+        "goal": jnp.zeros((8, 3)),
+        "action": jnp.zeros((8, 4)),
+        "reward": -jnp.ones((8,)),
+    }
     going_on = ddpg.td_target(state, batch, CFG)
     terminal = jnp.arange(8) % 2 == 0
     y = ddpg.td_target(state, {**batch, "terminal": terminal.astype(jnp.float32)}, CFG)

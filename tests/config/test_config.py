@@ -59,8 +59,9 @@ def _invalid(kind: type) -> st.SearchStrategy:
     )
 
 
-@pytest.mark.parametrize(("cls", "name", "kind", "is_tuple"), FIELDS,
-                         ids=[f"{c.__name__}.{n}" for c, n, *_ in FIELDS])  # fmt: skip
+@pytest.mark.parametrize(
+    ("cls", "name", "kind", "is_tuple"), FIELDS, ids=[f"{c.__name__}.{n}" for c, n, *_ in FIELDS]
+)
 @settings(max_examples=12, deadline=None)
 @given(data=st.data())
 def test_nan_inf_and_negative_values_are_refused_naming_the_field(cls, name, kind, is_tuple, data):

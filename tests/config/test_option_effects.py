@@ -95,8 +95,20 @@ def _aux(method: str, options: tuple):
     return spec.load_aux(dict(options))
 
 
+_PROGRAMS: dict[str, str] = {}
+
+
 def program(method: str, overrides: dict[str, dict]) -> str:
-    """A digest of one traced epoch of `method` with option overrides (group -> fields)."""
+    """A digest of one traced epoch of `method` with option overrides (group -> fields),
+    traced once per (method, overrides): the defaults' program is shared by every option of
+    a method that needs no other setting (about half of the traces)."""
+    key = repr((method, sorted((g, sorted(f.items())) for g, f in overrides.items() if f)))
+    if key not in _PROGRAMS:
+        _PROGRAMS[key] = _trace(method, overrides)
+    return _PROGRAMS[key]
+
+
+def _trace(method: str, overrides: dict[str, dict]) -> str:
     spec = methods.get(method)
     given = {g: dataclasses.replace(o, **overrides.get(g, {})) for g, o in spec.options.items()}
     train = TrainConfig(

@@ -14,8 +14,15 @@ from mjx_skills.envs import make
 from mjx_skills.skills.library import DEFAULT_DIR
 from mjx_skills.training.epoch import init_carry, make_train_epoch, over_seeds
 
-TINY = TrainConfig(task="pick_move", envs=2, cycles=1, updates_per_cycle=2, eval_episodes=2,
-                   replay_capacity=500, progress=False)  # fmt: skip
+TINY = TrainConfig(
+    task="pick_move",
+    envs=2,
+    cycles=1,
+    updates_per_cycle=2,
+    eval_episodes=2,
+    replay_capacity=500,
+    progress=False,
+)
 
 
 def _tracked(option, seen: set[str]):
@@ -51,8 +58,12 @@ def test_every_option_of_a_method_is_read_or_refused(method):
     init = jax.vmap(lambda k: init_carry(learner, env, TINY, k, aux))
     carry = jax.eval_shape(init, jax.random.split(jax.random.PRNGKey(0), 1))
     jax.eval_shape(epoch, carry, aux)
-    unread = {f"{group}.{f.name}" for group, opt in spec.options.items()
-              for f in dataclasses.fields(opt) if f.name not in seen[group]}  # fmt: skip
+    unread = {
+        f"{group}.{f.name}"
+        for group, opt in spec.options.items()
+        for f in dataclasses.fields(opt)
+        if f.name not in seen[group]
+    }
     declared = {path for path in spec.unread_now(spec.options) if not path.startswith("train.")}
     assert unread == declared, (
         f"{method}: read by nothing and not refused: {sorted(unread - declared)}; "

@@ -179,9 +179,16 @@ def test_n_step_returns_sum_the_relabelled_rewards_of_the_same_episode(buffer, n
     relabelled goal over the next min(n, T - t) steps of the same episode, next_obs lies
     that many steps later, and the discount is gamma to that power."""
     gamma = 0.9
-    fn = jax.jit(functools.partial(her.sample_batch, compute_reward=compute_reward,
-                                   strategy="future", n_step=n_step, gamma=gamma),
-                 static_argnums=2)  # fmt: skip
+    fn = jax.jit(
+        functools.partial(
+            her.sample_batch,
+            compute_reward=compute_reward,
+            strategy="future",
+            n_step=n_step,
+            gamma=gamma,
+        ),
+        static_argnums=2,
+    )
     batch = {
         k: np.asarray(v) for k, v in fn(buffer, jax.random.key(5), N, relabel_prob=0.8).items()
     }
@@ -208,9 +215,13 @@ def test_the_critic_target_discounts_by_the_batch_discount():
     config = DDPGConfig(hidden=(16,), clip_target=False, gamma=0.9)
     state = ddpg.init(jax.random.key(0), 3, 2, 2, config)
     rng = np.random.default_rng(0)
-    batch = {"obs": rng.normal(size=(64, 3)), "next_obs": rng.normal(size=(64, 3)),
-             "goal": rng.normal(size=(64, 2)), "action": rng.uniform(-1, 1, (64, 2)),
-             "reward": -np.ones(64)}  # fmt: skip
+    batch = {
+        "obs": rng.normal(size=(64, 3)),
+        "next_obs": rng.normal(size=(64, 3)),
+        "goal": rng.normal(size=(64, 2)),
+        "action": rng.uniform(-1, 1, (64, 2)),
+        "reward": -np.ones(64),
+    }
     batch = {k: jnp.asarray(v, jnp.float32) for k, v in batch.items()}
     discount = jnp.asarray(rng.choice([0.9**2, 0.9**5], 64), jnp.float32)
     one_step = np.asarray(ddpg.td_target(state, batch, config)) + 1.0  # gamma * Q'

@@ -40,8 +40,11 @@ class PointEnv:
 
     def _state(self, pos, goal):
         d = jnp.linalg.norm(pos - goal)
-        metrics = {"success": (d < 0.05).astype(jnp.float32), "distance": d,
-                   "physics_resets": jnp.zeros(())}  # fmt: skip
+        metrics = {
+            "success": (d < 0.05).astype(jnp.float32),
+            "distance": d,
+            "physics_resets": jnp.zeros(()),
+        }
         return PointState(obs=pos, achieved_goal=pos, desired_goal=goal, metrics=metrics)
 
     def reset(self, key):
@@ -99,8 +102,16 @@ def test_replay_layout_comes_from_the_episode():
 
 def test_trainer_counts_steps_episodes_and_skill_calls():
     env = PointEnv()
-    cfg = TrainConfig(task="point", envs=3, cycles=2, updates_per_cycle=2, eval_episodes=2,
-                      replay_capacity=700, seeds=2, progress=False)  # fmt: skip
+    cfg = TrainConfig(
+        task="point",
+        envs=3,
+        cycles=2,
+        updates_per_cycle=2,
+        eval_episodes=2,
+        replay_capacity=700,
+        seeds=2,
+        progress=False,
+    )
     ddpg_her = make_ddpg_her(env, cfg, DDPGConfig(hidden=(16,)))
     learner = Learner(**{**ddpg_her._asdict(), "explore": lambda a, aux, e: hold_behaviour()})
     run_epoch = jax.jit(jax.vmap(epoch.make_train_epoch(learner, env, cfg), in_axes=(0, None)))
@@ -122,8 +133,16 @@ def test_explore_reads_the_previous_epochs_evaluated_success():
     """`Progress.success`, what an explorer may drive eps with (`--search.eps-floor-by-success`),
     is each seed's eval success of the epoch before (0 in the first), and the epoch is its own."""
     env = PointEnv()
-    cfg = TrainConfig(task="point", envs=2, cycles=2, updates_per_cycle=1, eval_episodes=16,
-                      replay_capacity=300, seeds=3, progress=False)  # fmt: skip
+    cfg = TrainConfig(
+        task="point",
+        envs=2,
+        cycles=2,
+        updates_per_cycle=1,
+        eval_episodes=16,
+        replay_capacity=300,
+        seeds=3,
+        progress=False,
+    )
     base = make_ddpg_her(env, cfg, DDPGConfig(hidden=(8,)))
 
     def explore(agent, aux, progress):

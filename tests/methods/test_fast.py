@@ -58,8 +58,9 @@ def test_the_pick_acts_in_training_only_where_asked_and_always_in_evaluation(
     """`--fast.pick-in-training false` leaves training to DDPG+HER+SL's behaviour (the actor
     and its noise where the search does not drive); the evaluated policy picks either way."""
     calls = []
-    base = fast.Learner(init=None, explore=lambda *a: "base explores", evaluate=None,
-                        store=None, update=None)  # fmt: skip
+    base = fast.Learner(
+        init=None, explore=lambda *a: "base explores", evaluate=None, store=None, update=None
+    )
     monkeypatch.setattr(fast, "make_ddpg_her_sl", lambda *a: base)
     monkeypatch.setattr(fast, "make_behaviour", lambda *a, own, success: ("picking", own))
     monkeypatch.setattr(fast, "pick", lambda *a: calls.append(a) or ("picked", None))
@@ -86,10 +87,13 @@ def test_evaluation_reads_polyak_averages_folded_in_after_each_cycle_and_trainin
         critic_params=jax.tree.map(lambda x: x + 1.0, a.critic_params),
         steps=a.steps + 1,
     )
-    base = fast.Learner(init=lambda key: agent0,
-                        explore=lambda agent, *a: seen.append(agent) or "explores",
-                        evaluate=None, store=None,
-                        update=lambda agent, *a: (shift(agent), {"loss": 0.0}))  # fmt: skip
+    base = fast.Learner(
+        init=lambda key: agent0,
+        explore=lambda agent, *a: seen.append(agent) or "explores",
+        evaluate=None,
+        store=None,
+        update=lambda agent, *a: (shift(agent), {"loss": 0.0}),
+    )
     monkeypatch.setattr(fast, "make_ddpg_her_sl", lambda *a: base)
     monkeypatch.setattr(fast, "pick", lambda *a: calls.append(a) or ("picked", None))
     config = fast.FastConfig(pick_in_training=False, eval_average=w)
@@ -103,8 +107,11 @@ def test_evaluation_reads_polyak_averages_folded_in_after_each_cycle_and_trainin
     for name in ("actor_params", "critic_params"):
         start, online = getattr(agent0, name), getattr(state.agent, name)
         jax.tree.map(lambda p, o: np.testing.assert_allclose(o, p + 3.0, atol=1e-5), start, online)
-        jax.tree.map(lambda p, a: np.testing.assert_allclose(a, p + lag, atol=1e-5), start,
-                     getattr(state, name))  # fmt: skip
+        jax.tree.map(
+            lambda p, a: np.testing.assert_allclose(a, p + lag, atol=1e-5),
+            start,
+            getattr(state, name),
+        )
     prog = Progress(jnp.zeros((), jnp.int32), jnp.zeros(()))
     assert learner.explore(state, "library", prog) == "explores" and seen[-1] is state.agent
     learner.evaluate(state, "library").step((), jax.random.key(0), STATE)
@@ -113,8 +120,9 @@ def test_evaluation_reads_polyak_averages_folded_in_after_each_cycle_and_trainin
     assert evaluated.critic_params is state.critic_params
     assert evaluated.obs_norm is state.agent.obs_norm and calls[-1][1] == "library"
     # without averaging the agent is the base's own, unwrapped
-    plain = fast.make_ddpg_her_sl_fast(ONE_CUBE, TrainConfig(), CONFIG, SearchConfig(),
-                                       fast.FastConfig(eval_average=0.0))  # fmt: skip
+    plain = fast.make_ddpg_her_sl_fast(
+        ONE_CUBE, TrainConfig(), CONFIG, SearchConfig(), fast.FastConfig(eval_average=0.0)
+    )
     assert plain.init(jax.random.key(1)) is agent0
     with pytest.raises(ValueError, match="eval_average"):
         fast.FastConfig(eval_average=1.0)

@@ -41,8 +41,13 @@ def test_an_inverting_actor_learns_and_stays_inside_its_bounds():
     n, b = 400, 64
     obs = jax.random.normal(key, (n, b, 2))
     action = jax.random.uniform(jax.random.fold_in(key, 1), (n, b, 2), minval=-1, maxval=1)
-    batches = {"obs": obs, "next_obs": obs, "goal": jnp.zeros((n, b, 1)), "action": action,
-               "reward": 3.0 * action[..., 0]}  # fmt: skip
+    batches = {
+        "obs": obs,
+        "next_obs": obs,
+        "goal": jnp.zeros((n, b, 1)),
+        "action": action,
+        "reward": 3.0 * action[..., 0],
+    }
     state = ddpg.observe(state, obs.reshape(-1, 2), jnp.zeros((n * b, 1)))
     state, _ = ddpg.update(state, batches, cfg)
     o, g = ddpg.normalize_inputs(state, obs[0], jnp.zeros((b, 1)), cfg)
@@ -55,8 +60,12 @@ def test_store_lists_the_meta_steps_of_each_episode():
     T = 10
     decision = jnp.zeros((2, T), bool).at[0, jnp.array([0, 3, 7])].set(True).at[1, 0].set(True)
     meta = jnp.arange(2 * T, dtype=jnp.float32).reshape(2, T, 1)
-    episodes = rollout.Episode(obs=jnp.zeros((2, T + 1, 1)), ag=jnp.zeros((2, T + 1, 1)),
-                               g=jnp.zeros((2, T, 1)), actions=jnp.zeros((2, T, 1)))  # fmt: skip
+    episodes = rollout.Episode(
+        obs=jnp.zeros((2, T + 1, 1)),
+        ag=jnp.zeros((2, T + 1, 1)),
+        g=jnp.zeros((2, T, 1)),
+        actions=jnp.zeros((2, T, 1)),
+    )
     stored = pas.store(episodes, {"decision": decision, "meta_action": meta})
     np.testing.assert_array_equal(stored.start[0, :4], [0, 3, 7, T])
     np.testing.assert_array_equal(stored.end[0, :3], [3, 7, T])
@@ -106,8 +115,9 @@ def test_coarse_hindsight_relabels_with_a_later_meta_steps_achieved_goal(hindsig
 
 def _constant_meta_agent(meta_action: jax.Array) -> ddpg.DDPGState:
     """A meta-controller whose every output is `meta_action` (last layer: zeros + bias)."""
-    state = ddpg.init(jax.random.PRNGKey(0), 25, 3, meta_action.shape[0], DDPGConfig(),
-                      bounds="invert")  # fmt: skip
+    state = ddpg.init(
+        jax.random.PRNGKey(0), 25, 3, meta_action.shape[0], DDPGConfig(), bounds="invert"
+    )
     mlp = state.actor_params["params"]["MLP_0"]
     last = max(mlp, key=lambda name: int(name.split("_")[1]))
     mlp = {**mlp, last: {"kernel": jnp.zeros_like(mlp[last]["kernel"]), "bias": meta_action}}
@@ -124,8 +134,9 @@ def test_a_meta_step_is_the_skills_own_run(env_factory):
     meta = jnp.full((pas.meta_dim(K),), -1.0).at[transit].set(1.0)
     meta = meta.at[K + 3 * transit : K + 3 * transit + 3].set(x)
     cfg = PASConfig(skill_steps=6, critic="joint")
-    behaviour = pas.make_behaviour(_constant_meta_agent(meta), lib, env, cfg, DDPGConfig(),
-                                   noisy=False)  # fmt: skip
+    behaviour = pas.make_behaviour(
+        _constant_meta_agent(meta), lib, env, cfg, DDPGConfig(), noisy=False
+    )
     key = jax.random.PRNGKey(3)
     episodes, _, records = jax.jit(lambda k: rollout.run_episodes(env, behaviour, k, 2))(key)
     # By hand: the same resets, then transit's policy towards goal_from_param(x).
@@ -150,8 +161,15 @@ def test_a_meta_step_is_the_skills_own_run(env_factory):
 
 
 # --------------------------------------------------- the trainer's guarantees, per method
-TINY = dict(task="pick_move", envs=2, cycles=2, updates_per_cycle=3, eval_episodes=2,
-            replay_capacity=3000, progress=False)  # fmt: skip
+TINY = dict(
+    task="pick_move",
+    envs=2,
+    cycles=2,
+    updates_per_cycle=3,
+    eval_episodes=2,
+    replay_capacity=3000,
+    progress=False,
+)
 LIBRARY_METHODS = {
     "ddpg_her_sl": ("ddpg_her_sl", {"search": SearchConfig(branching=3, height=2)}),
     # DDPG+HER+SL's explorer with the default tree (K = 5, height 3), stall memory and
@@ -171,8 +189,9 @@ def _args(tmp_path, case, **overrides):
     train = {**TINY, "out": str(tmp_path), **overrides}
     if method in ("pas", "mpas", "ddpg_her_sl_fast"):  # they take their own update count
         train.pop("updates_per_cycle")
-    return RunArgs(train=TrainConfig(**train),
-                   method=method, env=EnvConfig(episode_length=12), options=options)  # fmt: skip
+    return RunArgs(
+        train=TrainConfig(**train), method=method, env=EnvConfig(episode_length=12), options=options
+    )
 
 
 def _rows(run_dir):
@@ -211,12 +230,15 @@ def test_library_methods_compile_once_repeat_and_resume(case, tmp_path):
     assert _rows(straight) == _rows(pieces)
 
 
-@pytest.mark.parametrize(("argv", "flag"), [
-    (["mpas", "--updates-per-cycle", "50"], "--pas.updates-per-cycle"),
-    (["pas", "--ddpg.relabel-prob", "0.5"], "--pas.relabel-prob"),
-    (["mpas", "--ddpg.her-strategy", "final"], "--pas.hindsight"),
-    (["pas", "--pas.relabel-prob", "0.5"], "--pas.hindsight, which is off"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("argv", "flag"),
+    [
+        (["mpas", "--updates-per-cycle", "50"], "--pas.updates-per-cycle"),
+        (["pas", "--ddpg.relabel-prob", "0.5"], "--pas.relabel-prob"),
+        (["mpas", "--ddpg.her-strategy", "final"], "--pas.hindsight"),
+        (["pas", "--pas.relabel-prob", "0.5"], "--pas.hindsight, which is off"),
+    ],
+)
 def test_an_option_the_method_does_not_read_is_refused(argv, flag, tmp_path):
     """PAS / MPAS wrote these to config.json and did nothing with them."""
     from mjx_skills import train as train_command

@@ -25,8 +25,9 @@ def test_ddpg_her_metrics_equal_the_recorded_reference():
     ref = json.loads(REFERENCE.read_text())
     cfg = dict(ref["config"])
     physics, epochs = cfg.pop("physics"), cfg.pop("epochs")
-    _, _, epoch_fn, carry = build("ddpg_her", TrainConfig(**cfg, progress=False),
-                                  EnvConfig(physics=physics))  # fmt: skip
+    _, _, epoch_fn, carry = build(
+        "ddpg_her", TrainConfig(**cfg, progress=False), EnvConfig(physics=physics)
+    )
     for epoch in range(epochs):
         carry, metrics = epoch_fn(carry, None)
         for name, want in ref["metrics_per_epoch"][epoch].items():

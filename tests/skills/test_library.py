@@ -18,8 +18,14 @@ from mjx_skills.core import files
 from mjx_skills.envs.baxter import OBS_GRIP, OBS_OBJECT, OBS_REL
 from mjx_skills.skills import fit, library
 
-SMALL = LibraryConfig(model_hidden=(16, 16), classifier_hidden=(8,), fit_batch=32,
-                      fit_epochs=40, patience=100, samples=512)  # fmt: skip
+SMALL = LibraryConfig(
+    model_hidden=(16, 16),
+    classifier_hidden=(8,),
+    fit_batch=32,
+    fit_epochs=40,
+    patience=100,
+    samples=512,
+)
 OBS, GOAL = 25, 3
 
 
@@ -36,8 +42,13 @@ def synthetic(key, K=2, N=512):
 
 def split(o, g, y, dims, n_val=64):
     w = jnp.ones(o.shape[:2])
-    part = lambda a, b: {"o": o[:, a:b], "g": g[:, a:b], "y": y[:, a:b], "w": w[:, a:b],
-                         "dims": dims}  # fmt: skip
+    part = lambda a, b: {
+        "o": o[:, a:b],
+        "g": g[:, a:b],
+        "y": y[:, a:b],
+        "w": w[:, a:b],
+        "dims": dims,
+    }
     return part(0, o.shape[1] - n_val), part(o.shape[1] - n_val, o.shape[1])
 
 
@@ -123,9 +134,13 @@ def constructed():
     key_mask[0, [0, 1, 2, 25, 26, 27]] = True
     key_mask[1, :] = True
     valid = np.array([[True, True, True, False], [True] * 4])
-    return lib.replace(memory_keys=jnp.asarray(keys), memory_next=jnp.asarray(nxt),
-                       state_mask=jnp.asarray(state_mask), memory_key_mask=jnp.asarray(key_mask),
-                       memory_valid=jnp.asarray(valid))  # fmt: skip
+    return lib.replace(
+        memory_keys=jnp.asarray(keys),
+        memory_next=jnp.asarray(nxt),
+        state_mask=jnp.asarray(state_mask),
+        memory_key_mask=jnp.asarray(key_mask),
+        memory_valid=jnp.asarray(valid),
+    )
 
 
 def test_recall_returns_the_exact_neighbour_over_the_skills_own_dimensions(constructed):
@@ -142,8 +157,9 @@ def test_recall_returns_the_exact_neighbour_over_the_skills_own_dimensions(const
     np.testing.assert_allclose(got[OBS_REL], query[OBS_OBJECT] - want[OBS_GRIP], rtol=1e-5)
     # An invalid slot is never returned, even when it is the nearest.
     near_invalid = stored[0, 3]
-    got = lib.recall(jnp.array([0]), jnp.asarray(near_invalid[None, :OBS]),
-                     jnp.asarray(near_invalid[None, OBS:]))  # fmt: skip
+    got = lib.recall(
+        jnp.array([0]), jnp.asarray(near_invalid[None, :OBS]), jnp.asarray(near_invalid[None, OBS:])
+    )
     assert not np.allclose(np.asarray(got)[0, :3], np.asarray(lib.memory_next[0, 3, :3]))
 
 
@@ -157,8 +173,9 @@ def test_goal_anchored_recall_carries_the_neighbours_offset_from_its_goal(constr
     obs, goal = jnp.asarray(query[None, :OBS]), jnp.asarray(query[None, OBS:])
     got = np.asarray(lib.recall(jnp.array([0]), obs, goal))[0]
     nb = np.asarray(lib.memory_next[0, 1])
-    np.testing.assert_allclose(got[OBS_GRIP], nb[OBS_GRIP] - stored[0, 1, OBS:] + query[OBS:],
-                               atol=1e-5)  # fmt: skip
+    np.testing.assert_allclose(
+        got[OBS_GRIP], nb[OBS_GRIP] - stored[0, 1, OBS:] + query[OBS:], atol=1e-5
+    )
     np.testing.assert_allclose(got[OBS_OBJECT], query[OBS_OBJECT], rtol=1e-6)  # not moved
     # The model: zero networks predict the mean change, measured from the goal.
     zero = jax.tree.map(jnp.zeros_like, lib.dynamics)
@@ -312,8 +329,13 @@ def test_the_scenes_digest_covers_the_one_cube_scenes_and_their_includes_only():
     """The skills' physics: every one-cube scene and what it includes; the two-cube scenes
     (added after the committed library) do not make it stale."""
     names = {p.name for p in library.scene_files()}
-    assert {"scene_pick_move.xml", "scene_put_in_container.xml", "baxter.xml", "table.xml",
-            "object.xml"} <= names  # fmt: skip
+    assert {
+        "scene_pick_move.xml",
+        "scene_put_in_container.xml",
+        "baxter.xml",
+        "table.xml",
+        "object.xml",
+    } <= names
     assert not names & {"object2.xml", "scene_pick_move_two.xml", "scene_two_in_container.xml"}
     manifest = library.read_manifest(library.DEFAULT_DIR)
     assert manifest["scenes"] == library.scenes_digest()

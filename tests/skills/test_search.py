@@ -8,20 +8,14 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 import numpy as np
-import pytest
 
 from mjx_skills.agents import ddpg
 from mjx_skills.config import DDPGConfig, SearchConfig
 from mjx_skills.envs.baxter import LAYOUT, OBS_GRIP, OBS_OBJECT
 from mjx_skills.methods import ddpg_her_sl
-from mjx_skills.skills import lookahead, stalls
-from mjx_skills.skills.library import consistent, skill_envs
+from mjx_skills.skills import lookahead
+from mjx_skills.skills.library import consistent
 from tests.fakes import NAMES, EnvState, KnownLibrary, states
-
-
-@pytest.fixture(scope="module")
-def env():
-    return skill_envs(("transfer",))[0]
 
 
 def test_one_level_search_returns_the_known_best_edge(env):
@@ -65,8 +59,9 @@ def test_goal_leaves_skip_the_model_and_score_the_goals(env):
     obs, goal = states(8, held=False)
     key = jax.random.PRNGKey(3)
     found = lookahead.search(GoalLeafLibrary(), cfg, env, obs, goal, key)
-    want = lookahead.search(KnownLibrary(), dataclasses.replace(cfg, leaf_state="predicted"),
-                         env, obs, goal, key)  # fmt: skip
+    want = lookahead.search(
+        KnownLibrary(), dataclasses.replace(cfg, leaf_state="predicted"), env, obs, goal, key
+    )
     np.testing.assert_array_equal(found.skill, want.skill)
     np.testing.assert_allclose(found.utility, want.utility, rtol=1e-6)
 
@@ -202,8 +197,9 @@ def test_the_floor_by_success_falls_as_the_evaluated_success_rises():
     by_success = dataclasses.replace(fixed, eps_floor_by_success=True)
     success = jnp.array([0.0, 0.5, 0.9, 1.0])
     # Past the decay: the floor, times 1 - success; a fixed floor ignores the success.
-    np.testing.assert_allclose(ddpg_her_sl.epsilon(by_success, 12, success), [0.1, 0.05, 0.01, 0.0],
-                               atol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(
+        ddpg_her_sl.epsilon(by_success, 12, success), [0.1, 0.05, 0.01, 0.0], atol=1e-6
+    )
     np.testing.assert_allclose(ddpg_her_sl.epsilon(fixed, 12, success), 0.1, atol=1e-6)
     # During the decay it heads for that floor: halfway at epoch 5.
     np.testing.assert_allclose(ddpg_her_sl.epsilon(by_success, 5, 1.0), 0.5, atol=1e-6)
@@ -232,75 +228,6 @@ def test_a_solved_task_holds_still(env):
 
 TRANSFER, GRASP = NAMES.index("transfer"), NAMES.index("grasp")
 Z = jnp.array([0.0, 0.0, 1.0])
-
-
-def test_segments_near_an_obstacle_are_blocked_and_grasp_never_is():
-    obs = jnp.zeros((4, 25)).at[:, OBS_GRIP].set(jnp.array([0.6, 0.0, 0.1]))
-    goal = jnp.array([[0.6, -0.3, 0.1]] * 4)
-    # On the path; 2 cm beside it; 5 cm beside it; behind the start (outside the segment).
-    points = jnp.array([[0.6, -0.15, 0.1], [0.62, -0.15, 0.1], [0.65, -0.15, 0.1],
-                        [0.6, 0.05, 0.1]])[:, None]  # fmt: skip
-    np.testing.assert_allclose(
-        stalls.segment_distance(points, obs[:, OBS_GRIP], goal)[:, 0],
-        [0.0, 0.02, 0.05, 0.05], atol=1e-6,
-    )  # fmt: skip
-    skill = jnp.full((4,), TRANSFER)
-    np.testing.assert_array_equal(
-        stalls.blocked(points, NAMES, skill, obs[:, OBS_GRIP], goal, 0.03),
-        [True, True, False, False],
-    )
-    grasp = jnp.full((4,), NAMES.index("grasp"))
-    assert not np.any(stalls.blocked(points, NAMES, grasp, obs[:, OBS_GRIP], goal, 0.03))
-
-
-def test_the_ring_buffer_keeps_the_last_points_of_envs_that_stalled():
-    obstacles, count = stalls.empty(2, 2), jnp.zeros((2,), jnp.int32)
-    heading = jnp.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-    for i in range(3):
-        grip = jnp.zeros((2, 3)).at[0, 2].set(i)
-        obstacles, count = stalls.remember(
-            obstacles, count, grip, grip + 2 * heading, jnp.array([True, False]), 0.1
-        )
-    np.testing.assert_array_equal(count, [3, 0])
-    # Slots 0 and 1 of env 0 hold stalls 2 and 1, each 0.1 from its grip towards its goal.
-    np.testing.assert_allclose(obstacles[0], [[0.1, 0.0, 2.0], [0.1, 0.0, 1.0]], atol=1e-6)
-    assert np.all(np.asarray(obstacles[1]) == stalls.EMPTY)
-
-
-def test_a_stalled_transfer_ends_and_the_search_stops_planning_through_it(env):
-    """The held cube does not move while a transfer runs (a wall): the explorer ends the
-    skill at its second step, remembers the point ahead, and no later transfer towards the
-    task goal passes there; with waypoints the search finds transfers that avoid it."""
-    agent = ddpg.init(jax.random.PRNGKey(1), 25, 3, 4, DDPGConfig())
-    obs, _ = states(64, held=True)
-    goal = obs[:, OBS_OBJECT] + jnp.array([0.0, -0.15, 0.0])  # 15 cm away: never solved
-    state = EnvState(obs=obs, desired_goal=goal, achieved_goal=obs[:, OBS_OBJECT])
-    for share in (0.0, 0.5):
-        cfg = SearchConfig(eps_start=1.0, eps_end=1.0, stall_memory=4, waypoint_share=share)
-        beh = ddpg_her_sl.make_behaviour(agent, KnownLibrary(), jnp.zeros((), jnp.int32), env, cfg,
-                                DDPGConfig())  # fmt: skip
-        step = jax.jit(beh.step)
-        ps = beh.init(jax.random.PRNGKey(0), 64)
-        ps, _, rec = step(ps, jax.random.PRNGKey(1), state)
-        assert np.all(rec["skill_calls"]) and np.all(np.asarray(ps.run.skill) == TRANSFER)
-        first = np.asarray(ps.run.goal)
-        ps, _, rec = step(ps, jax.random.PRNGKey(2), state)
-        assert not np.any(rec["stalls"])  # one step says nothing yet
-        ps, _, rec = step(ps, jax.random.PRNGKey(3), state)
-        # Every goal was farther than stall_ahead + stall_radius: all stalled at step 2.
-        assert np.all(rec["stalls"]) and np.all(np.asarray(ps.stalls) == 1)
-        grip = np.asarray(obs[:, OBS_GRIP])
-        ahead = grip + 0.03 * (first - grip) / np.linalg.norm(first - grip, axis=1, keepdims=True)
-        np.testing.assert_allclose(ps.obstacles[:, 0], ahead, atol=1e-5)
-        # The replanned skills (if any) pass no remembered obstacle.
-        started = np.asarray(rec["skill_calls"]).astype(bool)
-        if share == 0.0:  # every transfer heads for the task goal, past the obstacle
-            assert not started.any() and np.all(rec["all_pruned"])
-        else:
-            assert started.sum() >= 8  # waypoints heading away from it (24 of 64 here)
-            assert np.all(np.asarray(rec["all_pruned"])[~started])
-            near = stalls.segment_distance(ps.obstacles, obs[:, OBS_GRIP], ps.run.goal).min(-1)
-            assert np.all(np.asarray(near)[started] >= 0.03)
 
 
 def test_waypoints_spread_transfer_goals_over_the_goal_box(env):
@@ -362,7 +289,7 @@ def test_search_where_searches_only_the_deciding_envs_each_with_its_own_key(env)
             lambda w, c=chunk: lookahead.search_where(
                 lib, SearchConfig(search_chunk=c), env, w, obs, goal, key
             )
-        )(where)  # fmt: skip
+        )(where)
         for chunk in (0.125, 0.25, 1.0)
     }
     for found in results.values():
@@ -395,11 +322,12 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
     lib = CountingLibrary()
     where = jnp.zeros((2, 4), bool).at[1, 2].set(True)
     key = jax.random.PRNGKey(0)
-    found = over_seeds(
-        lambda w, o, g: lookahead.search_where(lib, cfg, env, w, o, g, key)
-    )(where, jnp.stack([obs, obs]), jnp.stack([goal, goal]))  # fmt: skip
-    alone = lookahead.search_envs(KnownLibrary(), cfg, env, obs[2:3], goal[2:3],
-                               lookahead.env_keys(key, 4)[2:3])  # fmt: skip
+    found = over_seeds(lambda w, o, g: lookahead.search_where(lib, cfg, env, w, o, g, key))(
+        where, jnp.stack([obs, obs]), jnp.stack([goal, goal])
+    )
+    alone = lookahead.search_envs(
+        KnownLibrary(), cfg, env, obs[2:3], goal[2:3], lookahead.env_keys(key, 4)[2:3]
+    )
     assert np.all(found.all_pruned == ~np.asarray(where))
     assert found.skill[1, 2] == alone.skill[0]
     np.testing.assert_allclose(found.goal[1, 2], alone.goal[0], atol=1e-6)
@@ -426,85 +354,6 @@ def test_the_search_runs_only_where_some_env_of_some_seed_explores(env):
         # (skills run w = 10 steps), pooled: 4 rounds of 2 envs (a quarter of 8).
         assert len(lib.calls) == (0 if eps == 0.0 else 4 * one_round), eps
         assert set(lib.calls) <= {2 * cfg.branching**level for level in range(1, cfg.height + 1)}
-
-
-@dataclasses.dataclass(frozen=True)
-class PruneByGoalLibrary(KnownLibrary):
-    """Edges whose goal lies at y > -0.2 are pruned wherever they are in the tree; memory
-    recall lands 2 cm short of the goal in x (so model and memory trees differ)."""
-
-    def success_prob(self, skill, obs, goal):
-        return jnp.where(goal[:, 1] > -0.2, 0.1, 0.9)
-
-    def recall(self, skill, obs, goal):
-        return KnownLibrary.next_state(self, skill, obs, goal.at[:, 0].add(-0.02))
-
-
-def _visit(lib, cfg, env, e, goal, draws, state, level, node, u, disc, first, alive, found):
-    """One node of env e's tree: score its b edges as `search` does, one at a time, and
-    recurse. found: {"best": (utility, skill, goal), "hidden": best utility under a pruned
-    edge}."""
-    b = cfg.branching
-    step = lib.next_state if cfg.lookahead_next == "model" else lib.recall
-    start = sum(b**i for i in range(level))
-    mine = tuple(x[e : e + 1, start + node] for x in draws)
-    skills, goals, ok = lookahead.sample_edges(lib, cfg, state[None], goal[e : e + 1], mine)
-    for c in range(b):
-        sk, g = skills[:, c], goals[:, c]
-        prob = float(lib.success_prob(sk, state[None], g)[0])
-        valid = alive and bool(ok[0, c]) and prob > cfg.prune_below
-        u2 = u + disc * float(lib.q(sk, state[None], g)[0])
-        nxt = step(sk, state[None], g)[0]
-        leaf = u2 + disc * cfg.gamma * float(lookahead.leaf_value(cfg, env, nxt, goal[e]))
-        f = first or (int(sk[0]), np.asarray(g[0]))
-        if valid and leaf > found["best"][0]:
-            found["best"] = (leaf, *f)
-        if not valid:
-            found["hidden"] = max(found["hidden"], leaf)
-        if level + 1 < cfg.height:
-            _visit(lib, cfg, env, e, goal, draws, nxt, level + 1, node * b + c, u2,
-                   disc * cfg.gamma, f, valid, found)  # fmt: skip
-
-
-def brute_force(lib, cfg, env, obs, goal, key) -> list[tuple[float, int, np.ndarray, bool]]:
-    """Every path of every env's tree, enumerated one edge at a time with the same draws:
-    per env (best utility, its first skill, first goal, whether some pruned edge had a
-    descendant that would have beaten it)."""
-    draws = lookahead.draw_edges(lookahead.env_keys(key, obs.shape[0]), cfg, len(lib.names))
-    out = []
-    for e in range(obs.shape[0]):
-        found = {"best": (-np.inf, -1, None), "hidden": -np.inf}
-        _visit(lib, cfg, env, e, goal, draws, obs[e], 0, 0, 0.0, 1.0, None, True, found)
-        out.append((*found["best"], found["hidden"] > found["best"][0]))
-    return out
-
-
-@pytest.mark.parametrize(("height", "next_from", "leaf"), [
-    (2, "model", "distance"), (3, "model", "distance"), (3, "memory", "reward"),
-])  # fmt: skip
-def test_the_tree_search_equals_a_brute_force_enumeration_of_every_path(
-    env, height, next_from, leaf
-):
-    """Utilities, discounting at depth, memory vs model next states and both leaf values,
-    against every path enumerated by hand; an edge the classifier prunes never leads to the
-    chosen path, even where one of its descendants would score best."""
-    cfg = SearchConfig(branching=3, height=height, lookahead_next=next_from, leaf_value=leaf)
-    lib = PruneByGoalLibrary()
-    obs, goal = states(6, held=False)
-    held, _ = states(6, held=True)
-    obs = jnp.concatenate([obs[:3], held[:3]])  # transit/grasp trees and transfer trees
-    key = jax.random.PRNGKey(7)
-    found = lookahead.search(lib, cfg, env, obs, goal, key)
-    want = brute_force(lib, cfg, env, obs, goal, key)
-    for e, (u, skill, g, _) in enumerate(want):
-        if not np.isfinite(u):
-            assert bool(found.all_pruned[e])
-            continue
-        assert float(found.utility[e]) == pytest.approx(u, rel=1e-4, abs=1e-4)
-        assert int(found.skill[e]) == skill
-        np.testing.assert_allclose(found.goal[e], g, atol=1e-5)
-    # The pruning mattered: somewhere a pruned edge's subtree held a better path.
-    assert any(h for *_, h in want)
 
 
 def test_the_random_skill_explorer_draws_uniform_allowed_skills_and_scores_nothing(env):

@@ -15,7 +15,7 @@ from mjx_skills import build_library
 from mjx_skills.config import DDPGConfig, LibraryConfig, SearchConfig
 from mjx_skills.envs import registry as envs
 from mjx_skills.envs.baxter import OBS_OBJECT
-from mjx_skills.skills import library, lookahead, provenance, registry, stalls, table
+from mjx_skills.skills import library, lookahead, registry, run_provenance, stalls, table
 from mjx_skills.skills.library import DEFAULT_DIR
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -207,6 +207,6 @@ def test_a_result_with_the_users_skills_depends_on_their_definitions(push, monke
     monkeypatch.setitem(registry.SKILLS, "push", other)
     assert registry.fingerprint("SL_push")["push"]["propose"] != before["push"]["propose"]
     config = {"options": {"search": {"library": "SL_push", "library_dir": str(DEFAULT_DIR)}}}
-    assert provenance.library_provenance(config)["skills"] == registry.fingerprint("SL_push")
+    assert run_provenance.library_provenance(config)["skills"] == registry.fingerprint("SL_push")
     config["options"]["search"]["library"] = "SL1"
-    assert set(provenance.library_provenance(config)) == {"commit", "scenes"}
+    assert set(run_provenance.library_provenance(config)) == {"commit", "scenes"}

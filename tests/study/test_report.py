@@ -56,8 +56,11 @@ def test_the_lowest_seed_is_judged_over_its_own_last_epochs_of_the_budget():
 
     learns = [0.0] * 10 + [1.0] * 20  # seed 0: learns at epoch 11
     late = [0.0] * 25 + [1.0] * 5  # seed 1: only its last 5 epochs succeed
-    rows = [{"seed": s, "epoch": e + 1, "eval_success": v}
-            for s, curve in enumerate((learns, late)) for e, v in enumerate(curve)]  # fmt: skip
+    rows = [
+        {"seed": s, "epoch": e + 1, "eval_success": v}
+        for s, curve in enumerate((learns, late))
+        for e, v in enumerate(curve)
+    ]
     assert seed_minimum(rows) == pytest.approx(0.5)  # seed 1 over epochs 21-30
     assert seed_minimum(rows, upto=20) == pytest.approx(0.0)  # seed 1 over epochs 11-20
     assert seed_minimum(rows, last=5) == pytest.approx(1.0)
@@ -95,9 +98,17 @@ def test_scores_from_rows_refuses_a_missing_epoch():
 
 
 def _summary(last, auc=(0.5, 0.4, 0.6)):
-    return stats.Summary(seeds=5, epochs=100, curve=np.zeros(100), curve_low=np.zeros(100),
-                         curve_high=np.zeros(100), last=last, auc=auc, reach_90=None,
-                         reach_50=None)  # fmt: skip
+    return stats.Summary(
+        seeds=5,
+        epochs=100,
+        curve=np.zeros(100),
+        curve_low=np.zeros(100),
+        curve_high=np.zeros(100),
+        last=last,
+        auc=auc,
+        reach_90=None,
+        reach_50=None,
+    )
 
 
 def test_verdict_rules():
@@ -137,10 +148,12 @@ def test_the_two_cube_bar_needs_a_library_method_high_and_ddpg_her_near_zero():
     # Over the cells run so far, naming those not run yet; nothing to judge without any.
     partial = said(ddpg_her=0.0, ddpg_her_sl=0.9)
     assert "**met** (MPAS, DDPG+HER+SL+Fast: not run yet)" in partial
-    assert "**not met** (MPAS: not run yet)" in said(ddpg_her=0.0, ddpg_her_sl=0.1,
-                                                     ddpg_her_sl_fast=0.5)  # fmt: skip
-    assert "Best: DDPG+HER+SL+Fast" in said(ddpg_her=0.0, mpas=0.3, ddpg_her_sl=0.1,
-                                            ddpg_her_sl_fast=0.85)  # fmt: skip
+    assert "**not met** (MPAS: not run yet)" in said(
+        ddpg_her=0.0, ddpg_her_sl=0.1, ddpg_her_sl_fast=0.5
+    )
+    assert "Best: DDPG+HER+SL+Fast" in said(
+        ddpg_her=0.0, mpas=0.3, ddpg_her_sl=0.1, ddpg_her_sl_fast=0.85
+    )
     assert "not all its cells are run yet" in said(ddpg_her=0.0)
     assert "not all its cells are run yet" in said(ddpg_her_sl=0.9)
 
@@ -154,8 +167,11 @@ def test_the_paired_comparison_differences_each_seeds_last_five_and_checks_the_t
     from study import faster
 
     def rows(curves, losses):
-        return [{"seed": s, "epoch": e + 1, "eval_success": v, "critic_loss": losses[s]}
-                for s, curve in enumerate(curves) for e, v in enumerate(curve)]  # fmt: skip
+        return [
+            {"seed": s, "epoch": e + 1, "eval_success": v, "critic_loss": losses[s]}
+            for s, curve in enumerate(curves)
+            for e, v in enumerate(curve)
+        ]
 
     online = [[0.5] * 10, [0.8] * 10, [0.6] * 10]
     averaged = [[0.5] * 5 + [0.7] * 5, [0.8] * 10, [0.6] * 5 + [0.5] * 5]  # +0.2, 0, -0.1

@@ -16,22 +16,29 @@ from mjx_skills.sweeps.ray_cells import check_ray_address
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import train_run
 
-TINY = {"envs": 2, "cycles": 2, "updates_per_cycle": 3, "eval_episodes": 2,
-        "replay_capacity": 3000}  # fmt: skip
+TINY = {"envs": 2, "cycles": 2, "updates_per_cycle": 3, "eval_episodes": 2, "replay_capacity": 3000}
 
 
 def _tiny(epochs=2, seeds=2) -> Experiment:
-    return Experiment(name="tiny", description="test", tasks=("transit",), methods=("ddpg_her",),
-                      seeds=seeds, epochs=epochs, train=TINY)  # fmt: skip
+    return Experiment(
+        name="tiny",
+        description="test",
+        tasks=("transit",),
+        methods=("ddpg_her",),
+        seeds=seeds,
+        epochs=epochs,
+        train=TINY,
+    )
 
 
 def test_the_thesis_experiments_are_valid_files():
     assert {"smoke", "fig6_3", "fig6_4", "fig6_5"} <= set(names())
     fig = load_experiment("fig6_3")
     assert {(c.task, c.method) for c in fig.cells()} == {
-        (t, m) for t in ("pick_move", "put_in_container", "put_on", "take_out")
+        (t, m)
+        for t in ("pick_move", "put_in_container", "put_on", "take_out")
         for m in ("ddpg_her", "pas", "mpas", "ddpg_her_sl")
-    }  # fmt: skip
+    }
     ablation = load_experiment("fig6_4").cells()
     assert sorted({c.library for c in ablation}) == ["SL1", "SL2", "SL3"]
     args = ablation[0].run_args("out")
@@ -111,6 +118,22 @@ def test_a_finished_sweep_skips_its_cells_and_keeps_its_results(finished_sweep):
     assert len(list((root / "cells").iterdir())) == 1
 
 
+def test_derived_results_in_the_checkouts_folder_are_replaced_without_asking(
+    finished_sweep, monkeypatch
+):
+    """NAME.csv in the checkout's results folder (git-ignored, derived from stored cells) is
+    written again; the same file elsewhere is refused without --overwrite (above)."""
+    root, exp, _, (csv_path, _) = finished_sweep
+    monkeypatch.setattr(sweep, "RESULTS", root / "results")
+    monkeypatch.setattr(sweep, "STORE", root / "results" / "cells")
+    text = csv_path.read_text()
+    csv_path.write_text("stale")
+    sweep.run_sweep(
+        exp, root / "cells", root / "results", root / "results" / "cells", progress=False
+    )
+    assert csv_path.read_text() == text
+
+
 def test_a_stored_cell_is_reused_only_with_the_definition_that_made_it(finished_sweep, tmp_path):
     """The finished cell is kept with its definition; a fresh sweep directory takes it from
     the store without training; the same cell name with another `[train] cycles` is refused
@@ -147,14 +170,28 @@ def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, 
     interrupted before the sweep resumes, and its metrics are the bits a one-at-a-time
     sweep gave (`finished_sweep`, the same cell also interrupted and resumed)."""
     _, _, serial_run, _ = finished_sweep
-    exp = Experiment(name="tiny", description="test", tasks=("transit", "transfer"),
-                     methods=("ddpg_her",), seeds=2, epochs=2, train=TINY)  # fmt: skip
+    exp = Experiment(
+        name="tiny",
+        description="test",
+        tasks=("transit", "transfer"),
+        methods=("ddpg_her",),
+        seeds=2,
+        epochs=2,
+        train=TINY,
+    )
     cells = exp.cells()
     interrupted = train_run(
         cells[0].run_args(str(tmp_path / "cells" / cells[0].name), progress=False), stop_after=1
     )
-    csv_path, jsonl_path = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results", tmp_path / "results" / "cells",
-                                           progress=False, jobs=2, pin=True)  # fmt: skip
+    csv_path, jsonl_path = sweep.run_sweep(
+        exp,
+        tmp_path / "cells",
+        tmp_path / "results",
+        tmp_path / "results" / "cells",
+        progress=False,
+        jobs=2,
+        pin=True,
+    )
     run_dirs = [local.cell_run_dir(tmp_path / "cells" / c.name) for c in cells]
     assert run_dirs[0] == interrupted and len(set(run_dirs)) == 2
     for run_dir in run_dirs:
@@ -168,138 +205,22 @@ def test_concurrent_cells_resume_apart_and_equal_a_serial_sweep(finished_sweep, 
         sweep.main(["--experiment", "smoke", "--jobs", "0", "--sweep-dir", str(tmp_path)])
 
 
-def test_core_groups_are_disjoint_and_cover_the_cores():
-    from mjx_skills.core.workers import core_groups
-
-    assert core_groups(2, [0, 1]) == [(0,), (1,)]
-    assert core_groups(2, [0, 1, 2, 3, 4]) == [(0, 1, 2), (3, 4)]
-    assert core_groups(3, [0, 1]) == [(0,), (1,), (0,)]  # more jobs than cores: shared
-    with pytest.raises(ValueError, match="jobs"):
-        core_groups(0, [0, 1])
-
-
-def test_the_estimate_adds_up_the_measured_epoch_costs():
-    from mjx_skills.sweeps import cost
-
-    rows = [{"variant": v, "seeds": s, "cores": 1, "epoch_s": e * s, "compile_s": 10.0,
-             "updates_s": 0.0 if v != "ddpg_her" else e * s}
-            for v, e in (("ddpg_her", 1.0), ("sl_eps1", 3.0), ("sl_eps0", 1.0))
-            for s in (1, 3)]  # fmt: skip
-    exp = Experiment(name="t", description="", tasks=("pick_move", "put_in_container"),
-                     methods=("ddpg_her", "ddpg_her_sl"), seeds=5, epochs=40)  # fmt: skip
-    est = cost.estimate(exp, jobs=1, rows=rows)
-    cells = est["cells"]
-    # DDPG+HER: all updates, so the episode length (100 vs 50) does not matter; 5 seeds
-    # extrapolate the line through 1 and 3 seeds: 5 s per epoch.
-    assert cells["pick_move-ddpg_her-s5-e40"] == cells["put_in_container-ddpg_her-s5-e40"] == 210
-    # SL: eps 1 -> 0.001 over 30 epochs, then 10 epochs at eps 0.001; twice on 100 steps.
-    eps = [1.0 + min(e / 30, 1.0) * (0.001 - 1.0) for e in range(40)]
-    sl = 10 + sum(5 + 10 * x for x in eps)
-    assert cells["pick_move-ddpg_her_sl-SL1-s5-e40"] == round(sl)
-    assert cells["put_in_container-ddpg_her_sl-SL1-s5-e40"] == round(10 + 2 * (sl - 10))
-    assert est["serial_s"] == pytest.approx(sum(cells.values()), abs=2)
-    two = cost.estimate(exp, jobs=2, rows=rows)
-    assert max(cells.values()) <= two["wall_s"] < est["serial_s"]
-    assert cost.makespan([3, 5, 3, 4, 3], 2) == 10  # longest first: 5 + 3, 4 + 3 + 3
-
-
-def test_a_method_the_benchmark_does_not_measure_costs_what_its_stored_cells_took(tmp_path):
-    """DDPG+HER+SL+Fast's estimate comes from its stored cells' wall time per epoch: the
-    same task's cell of the same options first (an ablation of another option is not
-    taken), scaled by seeds; another task's scaled by episode length."""
-    from mjx_skills.sweeps import cells, cost
-
-    def store(exp: Experiment, seconds_per_epoch: float) -> None:
-        cell = exp.cells()[0]
-        where = tmp_path / cell.name
-        where.mkdir()
-        (where / "definition.json").write_text(json.dumps(cells.definition(cell)))
-        rows = [{"epoch": e, "seed": s, "wall_s": seconds_per_epoch * e, "eval_success": 0.0}
-                for e in range(1, exp.epochs + 1) for s in range(exp.seeds)]  # fmt: skip
-        (where / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
-
-    fast = {"tasks": ("pick_move",), "methods": ("ddpg_her_sl_fast",), "libraries": ("SL1",)}
-    store(Experiment(name="a", description="", seeds=5, epochs=4, **fast), 50.0)
-    store(Experiment(name="b", description="", seeds=5, epochs=4, label="no_pick",
-                     options={"ddpg_her_sl_fast": {"fast": {"pick": False}}}, **fast), 500.0)  # fmt: skip
-    exp = Experiment(name="t", description="", seeds=2, epochs=10, **fast)
-    assert cost.estimate(exp, jobs=1, rows=[], store=tmp_path)["wall_s"] == 10 * 50 * 2 / 5
-    other = dataclasses.replace(exp, tasks=("put_in_container",))  # 100 steps, pick_move 50
-    assert cost.estimate(other, jobs=1, rows=[], store=tmp_path)["wall_s"] == 10 * 50 * 2 / 5 * 2
-    with pytest.raises(ValueError, match="no stored cell of it"):
-        cost.estimate(exp, jobs=1, rows=[], store=tmp_path / "empty")
-
-
-def test_the_estimate_says_the_jobs_it_models():
-    """One cell gets one worker whatever --jobs asks: the summary line says the same as the
-    JSON line under it."""
-    from mjx_skills.sweeps import cost
-    from mjx_skills.sweeps.experiments import adhoc
-
-    text = cost.report(adhoc("one", ("transit",), ("ddpg_her",)), jobs=4)
-    summary, est = text.splitlines()[-2], json.loads(text.splitlines()[-1])
-    assert est["jobs"] == 1 and f"--jobs {est['jobs']} (" in summary, summary
-
-
 def test_cells_run_as_ray_tasks(tmp_path):
     ray = pytest.importorskip("ray")
     exp = _tiny(epochs=1, seeds=1)
     try:
-        csv_path, _ = sweep.run_sweep(exp, tmp_path / "cells", tmp_path / "results", tmp_path / "results" / "cells",
-                                      ray_address="local", progress=False)  # fmt: skip
+        csv_path, _ = sweep.run_sweep(
+            exp,
+            tmp_path / "cells",
+            tmp_path / "results",
+            tmp_path / "results" / "cells",
+            ray_address="local",
+            progress=False,
+        )
     finally:
         ray.shutdown()
     rows = list(csv.DictReader(csv_path.open()))
     assert [(r["epoch"], r["seeds"]) for r in rows] == [("1", "1")]
-
-
-def test_the_table_experiment_builds_one_library_per_data_size(tmp_path):
-    table = load_experiment("table5_1")
-    cells = table.cells()
-    assert [c.samples for c in cells] == list(table.samples) and len(cells) >= 2
-    assert len({c.name for c in cells}) == len(cells)
-    assert not local.finished(local.cell_run_dir(tmp_path / cells[0].name), cells[0])
-    with pytest.raises(ValueError, match="samples"):
-        Experiment(name="t", description="", kind="library")
-    with pytest.raises(ValueError, match="valid: train, library"):
-        Experiment(name="t", description="", kind="tables")
-
-
-def test_a_library_experiment_carries_its_library_overrides():
-    anchored = load_experiment("table5_1_thesis")
-    cells = anchored.cells()
-    assert [c.name for c in cells] == [f"library-n{n}-anchor-start" for n in anchored.samples]
-    assert not {c.name for c in cells} & {c.name for c in load_experiment("table5_1").cells()}
-    with pytest.raises(ValueError, match="anchor"):
-        Experiment(name="t", description="", kind="library", samples=(100,),
-                   library={"anchor": "middle"})  # fmt: skip
-    with pytest.raises(ValueError, match="unknown .library. field.*valid:"):
-        Experiment(name="t", description="", kind="library", samples=(100,),
-                   library={"anchr": "goal"})  # fmt: skip
-    with pytest.raises(ValueError, match="kind"):
-        Experiment(name="t", description="", tasks=("pick_move",), methods=("ddpg_her",),
-                   library={"anchor": "goal"})  # fmt: skip
-
-
-def test_an_experiment_variant_carries_its_env_overrides_under_its_own_name():
-    """`[env]` reaches the run's EnvConfig and `label` keeps the variant's cells apart from
-    the default cells (the store would refuse a shared name); bad env fields are named."""
-    single = load_experiment("pas_single_goal").cells()
-    default = [
-        c for c in load_experiment("fig6_3").cells() if (c.task, c.method) == ("pick_move", "pas")
-    ]
-    assert single[0].name == "pick_move-pas-SL1-single_goal-s5-e100" != default[0].name
-    assert (
-        single[0].run_args("out").env.single_goal and not default[0].run_args("out").env.single_goal
-    )
-    held = load_experiment("take_out_held").cells()[0].run_args("out")
-    assert held.env.held_start_prob == 0.5 and held.train.task == "take_out"
-    with pytest.raises(ValueError, match=r"unknown \[env\] field.*valid:.*single_goal"):
-        Experiment(name="t", description="", tasks=("pick_move",), methods=("ddpg_her",),
-                   env={"single_gaol": True})  # fmt: skip
-    with pytest.raises(ValueError, match="held_start_prob"):
-        Experiment(name="t", description="", tasks=("pick_move",), methods=("ddpg_her",),
-                   env={"held_start_prob": 2.0})  # fmt: skip
 
 
 def test_a_field_added_since_a_cell_was_stored_matches_only_at_its_default():
@@ -416,64 +337,3 @@ def test_a_sweep_run_elsewhere_takes_the_committed_store_and_trains_nothing(tmp_
     est = json.loads(text.splitlines()[-1])
     assert est["cells"] == {} and len(est["stored"]) == 2 and est["wall_s"] == 0
     assert "2 cells, 2 stored; 0.00 h" in text
-
-
-def test_the_list_groups_every_experiment_by_what_it_is_for(capsys):
-    from mjx_skills.sweeps.experiment_file import GROUPS
-
-    sweep.main(["--list"])
-    lines = capsys.readouterr().out.splitlines()
-    headings = [line.split(":")[0] for line in lines if not line.startswith(" ")]
-    assert headings == [g for g in GROUPS if any(load_experiment(n).group == g for n in names())]
-    listed = [line.split()[0] for line in lines if line.startswith(" ")]
-    assert sorted(listed) == names()
-    under, group = {}, None
-    for line in lines:
-        if not line.startswith(" "):
-            group = line.split(":")[0]
-        else:
-            under[line.split()[0]] = (group, line.split()[1])
-    assert under["fig6_3"] == ("thesis", "16/16")
-    assert under["headline_fast"][0] == "beyond" and under["smoke"][0] == "diagnostic"
-
-
-def test_the_list_counts_a_library_sweep_stored_when_its_table_holds_the_rows(tmp_path):
-    """A library sweep's libraries are not stored, their Table 5.1 rows are: each sample
-    count with rows in the committed NAME.csv counts as stored."""
-    from mjx_skills.sweeps.listing import cost_text
-
-    exp = load_experiment("table5_1")  # samples 10k and 30k
-    store = tmp_path / "cells"
-    assert cost_text(exp, 1, store) == (0, "-")
-    (tmp_path / "table5_1.csv").write_text("skill,samples\ntransit,10000\ngrasp,10000\n")
-    assert cost_text(exp, 1, store) == (1, "-")
-    (tmp_path / "table5_1.csv").write_text("skill,samples\ntransit,10000\ntransit,30000\n")
-    assert cost_text(exp, 1, store) == (2, "done")
-
-
-def test_an_experiment_file_must_say_what_it_is_for(tmp_path, monkeypatch):
-    from mjx_skills.sweeps import experiment_file
-
-    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
-    body = 'description = "t"\ntasks = ["transit"]\nmethods = ["ddpg_her"]\n'
-    (tmp_path / "a.toml").write_text(body)
-    with pytest.raises(ValueError, match="group must be one of thesis, beyond, baseline"):
-        load_experiment("a")
-    (tmp_path / "b.toml").write_text(body + 'group = "misc"\n')
-    with pytest.raises(ValueError, match="unknown group 'misc'; valid: thesis"):
-        load_experiment("b")
-    (tmp_path / "c.toml").write_text(body + 'group = "diagnostic"\n')
-    assert load_experiment("c").group == "diagnostic"
-
-
-def test_the_list_names_a_file_it_cannot_read_and_lists_the_rest(tmp_path, monkeypatch, capsys):
-    from mjx_skills.sweeps import experiment_file
-
-    monkeypatch.setattr(experiment_file, "EXPERIMENTS", tmp_path)
-    body = 'group = "diagnostic"\nmethods = ["ddpg_her"]\n'
-    (tmp_path / "good.toml").write_text(f'description = "g"\ntasks = ["transit"]\n{body}')
-    (tmp_path / "mine.toml").write_text(f'description = "m"\ntasks = ["lift"]\n{body}')
-    sweep.main(["--list", "--store", str(tmp_path / "store")])
-    out = capsys.readouterr().out
-    assert "mine: cannot be read: " in out and "unknown task 'lift'" in out and "--import" in out
-    assert "  good " in out

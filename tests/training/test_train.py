@@ -15,8 +15,15 @@ from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, check_finite, load_config, train_run
 
 # A tiny budget: every code path of an epoch, compiled in seconds.
-TINY = dict(task="transit", envs=2, cycles=2, updates_per_cycle=5, eval_episodes=2,
-            replay_capacity=2000, progress=False)  # fmt: skip
+TINY = dict(
+    task="transit",
+    envs=2,
+    cycles=2,
+    updates_per_cycle=5,
+    eval_episodes=2,
+    replay_capacity=2000,
+    progress=False,
+)
 
 
 def tiny_args(tmp_path, **overrides):
@@ -218,8 +225,18 @@ def test_cli_forms_parse_to_the_same_run():
     from mjx_skills.train import parse
 
     sub = parse(["ddpg_her", "--task", "transit", "--ddpg.actor-lr", "3e-4", "--physics", "mjx"])
-    old = parse(["--method", "ddpg_her", "--task", "transit", "--ddpg.actor-lr", "3e-4",
-                 "--env.physics", "mjx"])  # fmt: skip
+    old = parse(
+        [
+            "--method",
+            "ddpg_her",
+            "--task",
+            "transit",
+            "--ddpg.actor-lr",
+            "3e-4",
+            "--env.physics",
+            "mjx",
+        ]
+    )
     assert sub == old
     assert sub.method == "ddpg_her" and sub.options["ddpg"].actor_lr == 3e-4
     assert sub.env.physics == "mjx" and sub.train.task == "transit"
@@ -248,6 +265,7 @@ def test_make_train_gives_a_task_the_skills_of_its_robot(task, library):
     argv = shlex.split(line.partition("-m mjx_skills.train")[2])
     args = parse(argv)
     assert args.train.task == task and args.options["search"].library == library
+    assert args.train.epochs == parse(["--task", task]).train.epochs  # one default budget
     with pytest.raises(SystemExit, match="--preset given twice"):
         parse([*argv, "--preset", "thesis", "--preset=thesis"])
 
@@ -308,12 +326,20 @@ def test_training_only_starts_never_reach_the_evaluation_episodes(
         return real(learner, env, cfg, eval_env)
 
     monkeypatch.setattr(train_mod, "make_train_epoch", spy)
-    cfg = TrainConfig(task=task, envs=2, cycles=1, updates_per_cycle=1, eval_episodes=2,
-                      replay_capacity=1000, progress=False)  # fmt: skip
+    cfg = TrainConfig(
+        task=task,
+        envs=2,
+        cycles=1,
+        updates_per_cycle=1,
+        eval_episodes=2,
+        replay_capacity=1000,
+        progress=False,
+    )
     from mjx_skills import methods
 
-    train_mod._build_program(methods.get("ddpg_her"), cfg, EnvConfig(**{field: 1.0}),
-                         {"ddpg": DDPGConfig()})  # fmt: skip
+    train_mod._build_program(
+        methods.get("ddpg_her"), cfg, EnvConfig(**{field: 1.0}), {"ddpg": DDPGConfig()}
+    )
     keys = jax.random.split(jax.random.PRNGKey(0), 16)
     starts = {role: jax.jit(jax.vmap(seen[role].reset))(keys) for role in ("train", "eval")}
     assert np.all(np.asarray(started(seen["train"], starts["train"])))
