@@ -323,7 +323,7 @@ FETCH_LIBRARY = "experiments/skill_library_fetch"
 """The skills built on Fetch (`python -m mjx_skills.build_library --robot fetch`)."""
 FETCH_SEARCH = {"transit_height": (0.05, 0.07)}
 """The search's transit goals on Fetch: 5-7 cm above the block, since Fetch's closed fingertips
-reach 5 cm below the grip (Baxter's 3-4.5 cm press them into the block; docs/results.md)."""
+reach 5 cm below the grip (Baxter's 3-4.5 cm press them into the block; docs/simulation.md)."""
 
 PRESETS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
     "default": {},
