@@ -16,6 +16,7 @@ import numpy as np
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import read_jsonl
 from mjx_skills.sweeps import cells
+from mjx_skills.sweeps.cell import Cell
 from mjx_skills.sweeps.experiment_file import names, raw
 from mjx_skills.sweeps.experiments import load_experiment
 from study import fetch_ranking
@@ -41,8 +42,8 @@ def published() -> list[dict]:
     return tomllib.loads(PUBLISHED.read_text())["figure"]
 
 
-def _stored() -> list[tuple[str, str, list[dict]]]:
-    """(label, task, metrics rows) of every stored cell of an experiment on a Fetch task, in
+def _stored() -> list[tuple[str, Cell, list[dict]]]:
+    """(label, cell, metrics rows) of every stored cell of an experiment on a Fetch task, in
     experiment order; the label is the experiment's name, with the method's label after a
     colon where the experiment runs several methods."""
     from mjx_skills.methods import get
@@ -56,7 +57,7 @@ def _stored() -> list[tuple[str, str, list[dict]]]:
             where = cells.stored(cell, cells.STORE)
             label = f"{name}: {get(cell.method).label}" if len(exp.methods) > 1 else name
             if where is not None:
-                out.append((label, cell.task, cells.read_stored_metrics(where)))
+                out.append((label, cell, cells.read_stored_metrics(where)))
     return out
 
 
@@ -64,8 +65,8 @@ def stored_cells(found=None) -> list[tuple[str, str, int, np.ndarray]]:
     """(experiment, task, env steps per epoch, (seeds, epochs) success) of every stored cell
     of an experiment on a Fetch task, in experiment order (of `found`, `_stored()`'s list)."""
     return [
-        (name, task, _per_epoch(rows), stats.scores_from_rows(rows))
-        for name, task, rows in _stored()
+        (name, cell.task, _per_epoch(rows), stats.scores_from_rows(rows))
+        for name, cell, rows in (_stored() if found is None else found)
     ]
 
 
@@ -91,11 +92,13 @@ def wall_table(found, peers) -> list[list[str]]:
     which the rolling mean first reaches it (ours: all the cell's seeds in one program;
     a peer: one seed at a time, the mean over its seeds)."""
     rows = []
-    for name, task, metrics in found:
+    for name, cell, metrics in found:
         hit = stats.first_reaching(stats.scores_from_rows(metrics).mean(axis=0), LEVEL)
         if hit is not None:
             seeds = len({r["seed"] for r in metrics})
-            rows.append([ENVS[task], name, f"{seeds} at once", _minutes(clock(metrics)[hit - 1])])
+            rows.append(
+                [ENVS[cell.task], name, f"{seeds} at once", _minutes(clock(metrics)[hit - 1])]
+            )
     for label, task, _, s, walls in peers:
         hit = stats.first_reaching(s.mean(axis=0), LEVEL)
         if hit is not None:
@@ -237,7 +240,9 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
             "",
             *table(["task", "run", "seeds", f"wall time to {LEVEL}"], walls),
         ]
-    lines += fetch_ranking.section()
+    methods = [(label, cell.method) for label, cell, _ in found]
+    ranked = [(*named, per, s) for named, (_, _, per, s) in zip(methods, ours, strict=True)]
+    lines += fetch_ranking.section(fetch_ranking.scores(ranked))
     lines += shortfalls(ours)
     if ours and figure([*ours, *peers], figure_path, draw) is not None:
         lines += ["", "![The Fetch runs over env steps](figures/fetch.png)"]
@@ -298,7 +303,6 @@ def _caveats(name: str) -> str:
     """What a reader must know of experiment `name`'s cell beside a published figure: the
     seeds it ran on if they were tuning seeds, and the skill library's one-time cost if a
     library method ran (`name`: a cell's label, its experiment before any colon)."""
-
     name = name.split(":")[0]
     if name not in names():
         return ""
@@ -311,9 +315,10 @@ def _caveats(name: str) -> str:
         )
     elif _fresh(name):
         out += f" That cell is a headline's: seeds {exp.seed}-{exp.seed + exp.seeds - 1}, fresh."
-    if library_cost(name):
+    cost = library_cost(name)
+    if cost:
         out += (
-            f" It uses the skill library of Fetch, whose build took {library_cost(name):,} env "
+            f" It uses the skill library of Fetch, whose build took {cost:,} env "
             "steps once, not counted in its curve."
         )
     return out

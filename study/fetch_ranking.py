@@ -11,9 +11,6 @@ import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.methods import get
-from mjx_skills.sweeps import cells
-from mjx_skills.sweeps.experiment_file import names
-from mjx_skills.sweeps.experiments import load_experiment
 from study.sections import table
 
 EXPERIMENTS = ("fetch_pick_and_place_sl", "fetch_pick_and_place_pas", "fetch_pick_and_place_her")
@@ -29,21 +26,15 @@ RANKS = (
 """(upper, lower) pairs of the thesis's ranking."""
 
 
-def stored() -> dict[str, np.ndarray]:
-    """method -> (seeds, epochs) eval success over the first BUDGET env steps, for each stored
-    cell of EXPERIMENTS (missing ones left out)."""
-    out = {}
-    for name in EXPERIMENTS:
-        if name not in names():
-            continue
-        for cell in load_experiment(name).cells():
-            where = cells.stored(cell, cells.STORE)
-            if where is None:
-                continue
-            rows = cells.read_stored_metrics(where)
-            per_epoch = rows[0]["env_steps"] // rows[0]["epoch"]
-            out[cell.method] = stats.scores_from_rows(rows)[:, : BUDGET // per_epoch]
-    return out
+def scores(ours) -> dict[str, np.ndarray]:
+    """method -> (seeds, epochs) eval success over the first BUDGET env steps, from the
+    cells of EXPERIMENTS among `ours`: (label, method, env steps per epoch, (seeds, epochs)
+    success) of the Fetch section's stored cells (a label: its experiment, then any colon)."""
+    return {
+        method: s[:, : BUDGET // per]
+        for label, method, per, s in ours
+        if label.split(":")[0] in EXPERIMENTS
+    }
 
 
 def verdict(upper: np.ndarray, lower: np.ndarray) -> str:
@@ -55,9 +46,9 @@ def verdict(upper: np.ndarray, lower: np.ndarray) -> str:
     return "reversed" if up_hi < low_lo else "not shown"
 
 
-def section(found: dict[str, np.ndarray] | None = None) -> list[str]:
-    """The ranking's table and one sentence per rank; [] while any of its cells is missing."""
-    found = stored() if found is None else found
+def section(found: dict[str, np.ndarray]) -> list[str]:
+    """The ranking's table and one sentence per rank from `scores`' dict; [] while any of its
+    cells is missing."""
     if not all(m in found for pair in RANKS for m in pair):
         return []
     order = sorted(found, key=lambda m: -found[m].mean())

@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 
+from mjx_skills.sweeps.cell import Cell
 from study import fetch, fetch_library
 
 
@@ -99,7 +100,8 @@ def test_the_wall_time_to_the_level_is_read_at_the_epoch_that_reaches_it():
     never = [{**r, "eval_success": 0.0} for r in ours]
     walls = np.tile(np.arange(1, 9) * 120.0, (2, 1))
     theirs = [("SB3 X", "fetch_push", 800, np.tile(curve, (2, 1)), walls)]
-    rows = fetch.wall_table([("mine", "fetch_push", ours), ("flat", "fetch_push", never)], theirs)
+    push = Cell(task="fetch_push", method="ddpg_her", library=None, seeds=3, epochs=8)
+    rows = fetch.wall_table([("mine", push, ours), ("flat", push, never)], theirs)
     assert rows == [
         ["FetchPush", "mine", "3 at once", "7.0 min"],
         ["FetchPush", "SB3 X", "1 at a time", "14.0 min"],
