@@ -167,8 +167,11 @@ def stored(cell, store: Path = STORE) -> Path | None:
 
 
 def save(cell, run_dir: Path, store: Path = STORE) -> Path:
-    """Keep a finished cell's metrics beside its definition (written whole or not at all)."""
+    """Keep a finished cell's metrics beside its definition (written whole or not at all).
+    The library part is the one the run recorded when it started (`runner.LIBRARY`), so a
+    skill's code changed while it trained makes a stored cell that the new code refuses."""
     from mjx_skills.skills.library import provenance
+    from mjx_skills.training.runner import LIBRARY
 
     where = store / cell.name
     tmp = where.with_name(f".{where.name}.partial")
@@ -176,6 +179,8 @@ def save(cell, run_dir: Path, store: Path = STORE) -> Path:
     tmp.mkdir(parents=True)
     shutil.copyfile(Path(run_dir) / "metrics.jsonl", tmp / "metrics.jsonl")
     meta = {**definition(cell), "made_by": provenance()}
+    if (Path(run_dir) / LIBRARY).exists():
+        meta["library"] = read_json(Path(run_dir) / LIBRARY)
     (tmp / "definition.json").write_text(
         json.dumps({k: meta[k] for k in ("config", "library")}, indent=1, sort_keys=True)
     )

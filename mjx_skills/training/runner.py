@@ -1,8 +1,9 @@
 """The host loop: call the jitted epoch, log, draw progress, checkpoint, resume.
 
 A run lives in OUT/<task>/<method>/<timestamp>/ with config.json, library.json (the skill
-library it started with, `LIBRARY`), metrics.jsonl (one line per epoch per seed), TensorBoard events and checkpoints/. A run directory is never reused:
-`--resume RUN_DIR` continues that run where its last checkpoint left it.
+library it started with, `LIBRARY`), metrics.jsonl (one line per epoch per seed),
+TensorBoard events and checkpoints/. A run directory is never reused: `--resume RUN_DIR`
+continues that run where its last checkpoint left it.
 """
 
 from __future__ import annotations

@@ -57,3 +57,16 @@ def test_a_run_without_a_library_records_none(run_dir):
     (run_dir / LIBRARY).unlink()
     assert cells.definition(plain)["library"] is None
     assert cells.run_differences(run_dir, plain) == []
+
+
+def test_a_stored_cell_keeps_the_library_its_run_started_with(run_dir, tmp_path, monkeypatch):
+    """A skill's code changed while the run trained: the cell is stored with the library the
+    run recorded, so the new code refuses it instead of taking it for its own."""
+    (run_dir / "metrics.jsonl").write_text("")
+    started = json.loads((run_dir / LIBRARY).read_text())
+    other = dataclasses.replace(registry.SKILLS["fetch_grasp"], env=dataclasses.Field)
+    monkeypatch.setitem(registry.SKILLS, "fetch_grasp", other)  # edited after the start
+    where = cells.save(CELL, run_dir, tmp_path / "store")
+    assert json.loads((where / "definition.json").read_text())["library"] == started
+    with pytest.raises(ValueError, match=r"another definition \(library\.skills\.fetch_grasp"):
+        cells.stored(CELL, tmp_path / "store")
