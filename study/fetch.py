@@ -19,7 +19,7 @@ from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.cell import Cell
 from mjx_skills.sweeps.experiment_file import names, raw
 from mjx_skills.sweeps.experiments import load_experiment
-from study import fetch_ranking
+from study import fetch_budget, fetch_ranking
 from study.fetch_library import LIBRARY, build_env_steps, library_table
 from study.sections import table
 
@@ -289,6 +289,7 @@ def shortfalls(ours) -> list[str]:
             f"On {env}, none of our cells reaches {LEVEL} (the best last-5 mean: "
             f"{stats.summarize(s).last[0]:.2f}, {name}, after {s.shape[1] * per:,} env "
             f"steps); {theirs}: we fall short of the published DDPG+HER."
+            + fetch_budget.sentence(name, best)
         )
     return ["", *out] if out else []
 

@@ -210,7 +210,9 @@ def test_published_figures_carry_their_sources():
     assert figures
     for f in figures:
         keys = {"source", "url", "commit", "env", "method", "setting", "level", "env_steps"}
-        assert set(f) == keys, f
+        learner = {"batch_size", "env_steps_per_update"}  # the gradient budget, both or none
+        assert set(f) in (keys, keys | learner), f
+        assert all(f.get(k, 1) >= 1 for k in learner), f
         assert f["url"].startswith("https://github.com/") and f["url"].endswith(".png")
         assert re.fullmatch(r"[0-9a-f]{7,40}", f["commit"])
         assert re.fullmatch(r"Fetch(Reach|Push|Slide|PickAndPlace)-v\d", f["env"])
