@@ -206,6 +206,8 @@ def main(argv: list[str] | None = None) -> None:
         }
     except ValueError as err:  # a stored cell damaged or of another definition; no README block
         raise SystemExit(f"error: {err}") from None
+    except ModuleNotFoundError as err:  # rliable or arch: `stats` names the extra
+        raise SystemExit(f"error: {err}") from None
     if args.check:
         stale = []
         for path, text in outputs.items():

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import importlib
 import warnings
 
 import numpy as np
@@ -22,6 +23,23 @@ LAST = 5
 """Epochs averaged for the final performance."""
 WINDOW = 5
 """Epochs of the rolling mean that decides when a level is reached."""
+
+
+EXTRA = "dev"
+"""The install extra that brings rliable and arch, which the interval estimates need."""
+
+
+def _needs(module: str):
+    """`module` imported; ModuleNotFoundError naming the extra that installs it if it is not
+    installed (the base install has neither rliable nor arch)."""
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as err:
+        raise ModuleNotFoundError(
+            f"{err.name} is not installed: the interval estimates need rliable and arch, "
+            f"which the {EXTRA} extra installs (pip install -e '.[{EXTRA}]', or make setup)",
+            name=err.name,
+        ) from None
 
 
 @contextlib.contextmanager
@@ -41,8 +59,7 @@ def _seeded(seed: int):
 
 def _bootstrap(score_dict: dict, func, seed: int) -> tuple[dict, dict]:
     """rliable's stratified bootstrap interval estimates (`REPS`, 95 %), reproducible."""
-    from rliable import library as rly
-
+    rly = _needs("rliable.library")
     with _seeded(seed):
         return rly.get_interval_estimates(
             score_dict,
@@ -59,8 +76,7 @@ def performance_profile(
     """Score distributions (Agarwal et al. 2021's performance profiles): for each method's
     scores (runs, tasks), the share of runs x tasks scoring above each tau, with its 95 %
     stratified bootstrap interval -> {method: (profile (len(taus),), low, high)}."""
-    from rliable import library as rly
-
+    rly = _needs("rliable.library")
     with _seeded(seed):
         profiles, cis = rly.create_performance_profile(
             {k: np.asarray(v, np.float64) for k, v in scores.items()}, taus, reps=REPS
@@ -86,8 +102,7 @@ def iqm_interval(values: np.ndarray, seed: int = 0) -> tuple[float, float, float
     """Interquartile mean over runs (rliable's `aggregate_iqm`: the mean of the middle 50 %,
     the estimate Agarwal et al. 2021 recommend for few runs) with its 95 % stratified
     bootstrap interval: values (runs,) or (runs, tasks) -> (iqm, low, high)."""
-    from rliable import metrics
-
+    metrics = _needs("rliable.metrics")
     values = np.asarray(values, dtype=np.float64).reshape(len(values), -1)
     point = float(metrics.aggregate_iqm(values))
     if values.shape[0] < 2:
@@ -102,8 +117,7 @@ def improvement(x: np.ndarray, y: np.ndarray, seed: int = 0) -> tuple[float, flo
     stratified bootstrap interval: x (runs_x,), y (runs_y,) -> (p, low, high). 0.5: no
     difference; Agarwal et al. call an improvement meaningful when the interval's lower end
     is above 0.5."""
-    from rliable import metrics
-
+    metrics = _needs("rliable.metrics")
     x = np.asarray(x, dtype=np.float64).reshape(len(x), -1)
     y = np.asarray(y, dtype=np.float64).reshape(len(y), -1)
     point = float(metrics.probability_of_improvement(x, y))
@@ -131,8 +145,7 @@ def reach_interval(
     IIDBootstrap; a curve's epochs stay together, unlike the per-epoch intervals above); a
     resample that never reaches the level counts as after the last epoch, and a bound
     there is None (never)."""
-    from arch.bootstrap import IIDBootstrap
-
+    bootstrap = _needs("arch.bootstrap")
     scores = np.asarray(scores, dtype=np.float64)
     never = scores.shape[1] + 1
 
@@ -140,7 +153,7 @@ def reach_interval(
         hit = first_reaching(x.mean(axis=0), level, window)
         return float(never if hit is None else hit)
 
-    boot = IIDBootstrap(scores, seed=np.random.default_rng(seed))
+    boot = bootstrap.IIDBootstrap(scores, seed=np.random.default_rng(seed))
     low, high = boot.conf_int(epoch, reps=REPS, method="percentile", size=CONFIDENCE)[:, 0]
     bound = lambda x: None if round(x) >= never else round(x)  # noqa: E731
     return bound(low), bound(high)
