@@ -6,6 +6,7 @@ import pytest
 
 from mjx_skills.core import compile_cache
 from mjx_skills.envs import make
+from tests import fakes
 
 # Compiled programs persist across test sessions (and are shared with the CLI's runs).
 compile_cache.enable()
@@ -25,12 +26,4 @@ def env_factory():
 def tiny_train() -> dict:
     """TrainConfig fields of a tiny run (every code path of an epoch, compiled in seconds;
     test_train's budget, so the compiled epoch is shared)."""
-    return dict(
-        task="transit",
-        envs=2,
-        cycles=2,
-        updates_per_cycle=5,
-        eval_episodes=2,
-        replay_capacity=2000,
-        progress=False,
-    )
+    return fakes.tiny_train()

@@ -14,6 +14,22 @@ from mjx_skills.envs.baxter import LAYOUT, OBS_GRIP, OBS_OBJECT
 from mjx_skills.skills.library import SkillLibrary, consistent, skill_envs
 
 NAMES = ("transit", "grasp", "transfer")
+TINY_TRAIN = dict(
+    task="transit",
+    envs=2,
+    cycles=2,
+    updates_per_cycle=5,
+    eval_episodes=2,
+    replay_capacity=2000,
+    progress=False,
+)
+"""TrainConfig fields of a tiny run: every code path of an epoch, compiled in seconds (the
+budget test_train's runs share, so their compiled epoch is shared too)."""
+
+
+def tiny_train(**changes) -> dict:
+    """TINY_TRAIN with `changes`: the TrainConfig fields of a test's tiny run."""
+    return {**TINY_TRAIN, **changes}
 
 
 @struct.dataclass

@@ -13,15 +13,10 @@ from mjx_skills.config import TrainConfig
 from mjx_skills.envs import make
 from mjx_skills.skills.library import DEFAULT_DIR
 from mjx_skills.training.epoch import init_carry, make_train_epoch, over_seeds
+from tests.fakes import tiny_train
 
 TINY = TrainConfig(
-    task="pick_move",
-    envs=2,
-    cycles=1,
-    updates_per_cycle=2,
-    eval_episodes=2,
-    replay_capacity=500,
-    progress=False,
+    **tiny_train(task="pick_move", cycles=1, updates_per_cycle=2, replay_capacity=500)
 )
 
 

@@ -17,6 +17,7 @@ from mjx_skills.core.learner import Learner
 from mjx_skills.core.rollout import Behaviour, Episode, example_episode, run_episodes, stateless
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.training import epoch
+from tests.fakes import tiny_train
 
 HOLD = 3
 
@@ -103,14 +104,7 @@ def test_replay_layout_comes_from_the_episode():
 def test_trainer_counts_steps_episodes_and_skill_calls():
     env = PointEnv()
     cfg = TrainConfig(
-        task="point",
-        envs=3,
-        cycles=2,
-        updates_per_cycle=2,
-        eval_episodes=2,
-        replay_capacity=700,
-        seeds=2,
-        progress=False,
+        **tiny_train(task="point", envs=3, updates_per_cycle=2, replay_capacity=700, seeds=2)
     )
     ddpg_her = make_ddpg_her(env, cfg, DDPGConfig(hidden=(16,)))
     learner = Learner(**{**ddpg_her._asdict(), "explore": lambda a, aux, e: hold_behaviour()})
@@ -134,14 +128,9 @@ def test_explore_reads_the_previous_epochs_evaluated_success():
     is each seed's eval success of the epoch before (0 in the first), and the epoch is its own."""
     env = PointEnv()
     cfg = TrainConfig(
-        task="point",
-        envs=2,
-        cycles=2,
-        updates_per_cycle=1,
-        eval_episodes=16,
-        replay_capacity=300,
-        seeds=3,
-        progress=False,
+        **tiny_train(
+            task="point", updates_per_cycle=1, eval_episodes=16, replay_capacity=300, seeds=3
+        )
     )
     base = make_ddpg_her(env, cfg, DDPGConfig(hidden=(8,)))
 

@@ -18,6 +18,7 @@ from mjx_skills.skills.library import DEFAULT_DIR, LIBRARIES, load
 from mjx_skills.training import epoch
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, train_run
+from tests.fakes import tiny_train
 
 needs_library = pytest.mark.skipif(
     not (DEFAULT_DIR / "manifest.json").exists(), reason="no built skill library"
@@ -161,15 +162,7 @@ def test_a_meta_step_is_the_skills_own_run(env_factory):
 
 
 # --------------------------------------------------- the trainer's guarantees, per method
-TINY = dict(
-    task="pick_move",
-    envs=2,
-    cycles=2,
-    updates_per_cycle=3,
-    eval_episodes=2,
-    replay_capacity=3000,
-    progress=False,
-)
+TINY = tiny_train(task="pick_move", updates_per_cycle=3, replay_capacity=3000)
 LIBRARY_METHODS = {
     "ddpg_her_sl": ("ddpg_her_sl", {"search": SearchConfig(branching=3, height=2)}),
     # DDPG+HER+SL's explorer with the default tree (K = 5, height 3), stall memory and

@@ -14,6 +14,7 @@ from mjx_skills.skills import registry
 from mjx_skills.skills.library import library_robot, load, read_manifest
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import LIBRARY, RunArgs, train_run
+from tests.fakes import tiny_train
 
 FETCH_DIR = registry.default_dir("fetch")
 FETCH = registry.LIBRARIES["SL1_fetch"]
@@ -38,17 +39,16 @@ def test_a_library_method_trains_fetch_pick_and_place_with_it(method, tmp_path):
         "search": {"search": SearchConfig(branching=3, height=2, **where)},
         "pas": {"pas": PASConfig(updates_per_cycle=3, **where)},
     }[group]
-    updates = {"updates_per_cycle": 3} if method == "ddpg_her_sl" else {}
+    updates = 3 if method == "ddpg_her_sl" else TrainConfig().updates_per_cycle  # PAS: its own
     train = TrainConfig(
-        task="fetch_pick_and_place",
-        epochs=1,
-        envs=2,
-        cycles=1,
-        eval_episodes=2,
-        replay_capacity=3000,
-        progress=False,
-        out=str(tmp_path),
-        **updates,
+        **tiny_train(
+            task="fetch_pick_and_place",
+            epochs=1,
+            cycles=1,
+            updates_per_cycle=updates,
+            replay_capacity=3000,
+            out=str(tmp_path),
+        )
     )
     run_dir = train_run(RunArgs(train=train, method=method, options=options))
     (row,) = read_metrics(run_dir)
