@@ -315,8 +315,13 @@ def physics_section() -> str:
     return "\n".join(parts)
 
 
-BLOCKS = ((BEGIN, END, section), (PHYSICS_BEGIN, PHYSICS_END, physics_section))
-"""Each generated block of docs/benchmarks.md: its markers and what writes it."""
+BLOCKS = (
+    (BEGIN, END, section),
+    (PHYSICS_BEGIN, PHYSICS_END, physics_section),
+    *runpy.run_path(str(Path(__file__).with_name("throughput_report.py")))["BLOCKS"],
+)
+"""Each generated block of docs/benchmarks.md: its markers and what writes it (the training
+throughput and Stable-Baselines3 blocks: throughput_report.py)."""
 
 
 def main() -> None:

@@ -19,7 +19,7 @@ from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.cell import Cell
 from mjx_skills.sweeps.experiment_file import names, raw
 from mjx_skills.sweeps.experiments import load_experiment
-from study import fetch_budget, fetch_ranking
+from study import fetch_budget, fetch_explorer, fetch_ranking
 from study.fetch_library import LIBRARY, build_env_steps, library_table
 from study.sections import table
 
@@ -244,6 +244,7 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
     ranked = [(*named, per, s) for named, (_, _, per, s) in zip(methods, ours, strict=True)]
     lines += fetch_ranking.section(fetch_ranking.scores(ranked))
     lines += shortfalls(ours)
+    lines += fetch_explorer.paragraph(found)
     if ours and figure([*ours, *peers], figure_path, draw) is not None:
         lines += ["", "![The Fetch runs over env steps](figures/fetch.png)"]
     return lines

@@ -29,11 +29,12 @@ def test_importing_the_package_has_no_side_effects():
     assert out.stdout.strip() == "None"
 
 
-@pytest.mark.parametrize("block", ["speed", "physics"])
+@pytest.mark.parametrize("block", ["speed", "physics", "throughput", "peer"])
 def test_the_generated_benchmark_blocks_are_what_the_committed_results_give(block):
-    """Every figure of docs/benchmarks.md's "Speed" section and its "Physics" subsection
-    (the Fetch ratio included) is computed from committed benchmark results by
-    benchmarks/speed_report.py (run it with --write after a benchmark)."""
+    """Every figure of docs/benchmarks.md's "Speed" section, its "Physics" and "Training
+    throughput" subsections (the Fetch ratio included) and its "Against Stable-Baselines3"
+    section is computed from committed benchmark results by benchmarks/speed_report.py
+    (run it with --write after a benchmark)."""
     import runpy
     from pathlib import Path
 

@@ -1,0 +1,42 @@
+"""What a Fetch headline's explorer showed its learner (study/fetch_explorer.py), read from
+the cell's metrics: training success while the search explored, the frozen policy's success
+when it stopped, and the epoch the policy reached the target's level on its own."""
+
+from __future__ import annotations
+
+from mjx_skills.sweeps.experiments import load_experiment
+from study import fetch_explorer
+
+HEADLINE = "headline_fetch_pick_and_place"  # DDPG+HER+SL, eps over 30 epochs, target 125
+
+
+def _rows(epochs: int = 40) -> list[dict]:
+    """2 seeds: training success 0.5 and eval 0.1 while the search explores (epochs 1-30),
+    then eval 1.0: the rolling mean reaches 0.9 at epoch 35."""
+    return [
+        {
+            "epoch": e,
+            "seed": s,
+            "train_success": 0.5 if e <= 30 else 0.2,
+            "eval_success": 0.1 if e <= 30 else 1.0,
+        }
+        for e in range(1, epochs + 1)
+        for s in (0, 1)
+    ]
+
+
+def test_the_headline_sentence_reads_its_metrics():
+    (cell,) = load_experiment(HEADLINE).cells()
+    (said,) = fetch_explorer.paragraph([(HEADLINE, cell, _rows())])[1:]
+    assert "(eps decaying over epochs 1-30), 0.50 of its training episodes" in said
+    assert "succeeded on 0.10 of its evaluations over epochs 26-30" in said
+    assert "the policy reached 0.9 at epoch 35 (the target: epoch 125)" in said
+    never = [dict(r, eval_success=0.1) for r in _rows()]
+    assert "never reached 0.9" in fetch_explorer.paragraph([(HEADLINE, cell, never)])[1]
+
+
+def test_only_a_ddpg_her_sl_headline_gets_one():
+    (tuning,) = load_experiment("fetch_pick_and_place_sl").cells()  # not a headline
+    assert fetch_explorer.paragraph([("fetch_pick_and_place_sl", tuning, _rows())]) == []
+    (her,) = load_experiment("headline_fetch_pick_and_place_her").cells()  # no explorer
+    assert fetch_explorer.paragraph([("headline_fetch_pick_and_place_her", her, _rows())]) == []
