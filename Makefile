@@ -34,7 +34,7 @@ train: setup
 	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills ROBOT=$(ROBOT) SKILL_LIBRARY=$(SKILL_LIBRARY); fi
 	$(BIN)/python -m mjx_skills.train $(METHOD) $(if $(PRESET),--preset $(PRESET)) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
 
-# Train transit / grasp / transfer, collect their data, fit their models (about 10 min).
+# Train transit / grasp / transfer, collect their data, fit their models.
 # ROBOT=fetch builds the same skills on Fetch into experiments/skill_library_fetch;
 # ROBOT=fetch SKILL_LIBRARY=SL_fetch_push the push library into experiments/skill_library_SL_fetch_push.
 skills: setup
@@ -52,7 +52,7 @@ bench: setup
 	$(BIN)/python benchmarks/physics.py
 	$(BIN)/python benchmarks/train_throughput.py
 
-# Ours against Stable-Baselines3 (installs the bench extra: torch CPU, SB3); about 25 min.
+# Ours against Stable-Baselines3 (installs the bench extra: torch CPU, SB3).
 bench-peer: setup
 	$(BIN)/pip install --quiet -e '.[bench]'
 	MJX_SKILLS_CACHE_DIR=off $(BIN)/python benchmarks/peer_sb3.py --tasks transit --sb3-epochs 80 --seeds 3

@@ -38,18 +38,48 @@ def main() -> None:
     exp = adhoc(args.name, args.tasks, args.methods).with_budget(args.seeds, args.epochs)
     est = cost.estimate(exp, args.jobs, from_scratch=True)
     print(json.dumps({"estimate": est}), flush=True)
-    cmd = [sys.executable, "-m", "mjx_skills.sweep", "--name", args.name, "--tasks", *args.tasks,
-           "--methods", *args.methods, "--seeds", str(args.seeds), "--epochs", str(args.epochs),
-           "--jobs", str(args.jobs), "--no-progress", "--overwrite",
-           # Every cell trained (a fresh store), its per-seed rows beside the benchmark's.
-           "--store", tempfile.mkdtemp(), "--results", str(RESULTS)]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "mjx_skills.sweep",
+        "--name",
+        args.name,
+        "--tasks",
+        *args.tasks,
+        "--methods",
+        *args.methods,
+        "--seeds",
+        str(args.seeds),
+        "--epochs",
+        str(args.epochs),
+        "--jobs",
+        str(args.jobs),
+        "--no-progress",
+        "--overwrite",
+        # Every cell trained (a fresh store), its per-seed rows beside the benchmark's.
+        "--store",
+        tempfile.mkdtemp(),
+        "--results",
+        str(RESULTS),
+    ]
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True)
     wall = time.perf_counter() - t0
-    print(json.dumps({"name": args.name, "jobs": args.jobs, "seeds": args.seeds,
-                      "epochs": args.epochs, "estimate_s": est["wall_s"], "wall_s": round(wall),
-                      "error": round(wall / est["wall_s"] - 1, 3), "cells": est["cells"],
-                      "command": " ".join(["python -m mjx_skills.sweep", *cmd[3:]])}))  # fmt: skip
+    print(
+        json.dumps(
+            {
+                "name": args.name,
+                "jobs": args.jobs,
+                "seeds": args.seeds,
+                "epochs": args.epochs,
+                "estimate_s": est["wall_s"],
+                "wall_s": round(wall),
+                "error": round(wall / est["wall_s"] - 1, 3),
+                "cells": est["cells"],
+                "command": " ".join(["python -m mjx_skills.sweep", *cmd[3:]]),
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -59,8 +59,12 @@ def options_of(variant: str) -> tuple[str, dict]:
     if not variant.startswith(("sl_", "oracle")):
         return variant, dict(methods.get(variant).options)
     eps = 0.001 if variant == "sl_eps0" else 1.0
-    search = dataclasses.replace(SearchConfig(), eps_start=eps, eps_end=eps,
-                                 explorer="scripted" if variant == "oracle" else "search")  # fmt: skip
+    search = dataclasses.replace(
+        SearchConfig(),
+        eps_start=eps,
+        eps_end=eps,
+        explorer="scripted" if variant == "oracle" else "search",
+    )
     if variant == "sl_eps1_whole":  # every env's tree whenever one env searches
         search = dataclasses.replace(search, search_chunk=1.0)
     return "ddpg_her_sl", {**methods.get("ddpg_her_sl").options, "search": search}
@@ -125,9 +129,15 @@ def measure(variants: list[str], task: str, seeds: int, epochs: int, breakdown: 
     for variant, run in runs.items():
         epoch_s = statistics.median(run.times)
         share = float(jnp.mean(run.metrics.get("explore_searches", 0.0)))
-        row = {"variant": variant, "task": task, "seeds": seeds, "epoch_s": round(epoch_s, 3),
-               "compile_s": round(run.compile_s, 1), "cores": usable_cores(),
-               "searches_share": round(share, 4)}  # fmt: skip
+        row = {
+            "variant": variant,
+            "task": task,
+            "seeds": seeds,
+            "epoch_s": round(epoch_s, 3),
+            "compile_s": round(run.compile_s, 1),
+            "cores": usable_cores(),
+            "searches_share": round(share, 4),
+        }
         if breakdown:
             row.update(pieces(run.learner, run.env, run.cfg, run.carry, run.aux, epoch_s))
         yield row

@@ -47,8 +47,9 @@ def main() -> None:
     make += [] if args.method == DEFAULT else [f"METHOD={args.method}"]
     make += [] if args.epochs is None else [f"EPOCHS={args.epochs}"]
     load = settled_load()
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, text=True,
-                            capture_output=True).stdout.strip()  # fmt: skip
+    commit = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, text=True, capture_output=True
+    ).stdout.strip()
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
         subprocess.run([*make, f"OUT={out}"], cwd=ROOT, check=True)
@@ -56,12 +57,33 @@ def main() -> None:
         (metrics,) = Path(out).glob(f"pick_move/{args.method}/*/metrics.jsonl")
         shutil.copy(metrics, ROOT / curve)
         evaluated = subprocess.run(
-            [str(ROOT / ".venv" / "bin" / "python"), "-m", "mjx_skills.evaluate", str(metrics.parent),
-             "--episodes", "100"], cwd=ROOT, check=True, capture_output=True, text=True)  # fmt: skip
+            [
+                str(ROOT / ".venv" / "bin" / "python"),
+                "-m",
+                "mjx_skills.evaluate",
+                str(metrics.parent),
+                "--episodes",
+                "100",
+            ],
+            cwd=ROOT,
+            check=True,
+            capture_output=True,
+            text=True,
+        )
         fresh = json.loads(evaluated.stdout.strip().splitlines()[-1])["success"]
-    print(json.dumps({"command": " ".join(make), "method": args.method, "wall_s": round(wall, 1),
-                      "curve": curve, "fresh_success": fresh, "load_before": round(load, 2),
-                      "commit": commit}))  # fmt: skip
+    print(
+        json.dumps(
+            {
+                "command": " ".join(make),
+                "method": args.method,
+                "wall_s": round(wall, 1),
+                "curve": curve,
+                "fresh_success": fresh,
+                "load_before": round(load, 2),
+                "commit": commit,
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -35,9 +35,14 @@ def measure(method: str, task: str, epochs: int, leaf_state: str | None = None) 
     env, _, epoch_fn, carry = build(method, cfg, EnvConfig(), options, aux)
     compile_s, wall = timed_epochs(epoch_fn, carry, aux, epochs)
     steps = epochs * (cfg.envs * cfg.cycles + cfg.eval_episodes) * env.episode_length
-    return {"method": method, "task": task, "cores": os.cpu_count(),
-            "env_steps_per_s": round(steps / wall, 1), "epoch_s": round(wall / epochs, 3),
-            "compile_s": round(compile_s, 1)}  # fmt: skip
+    return {
+        "method": method,
+        "task": task,
+        "cores": os.cpu_count(),
+        "env_steps_per_s": round(steps / wall, 1),
+        "epoch_s": round(wall / epochs, 3),
+        "compile_s": round(compile_s, 1),
+    }
 
 
 def main() -> None:

@@ -51,8 +51,11 @@ def main() -> None:
     parser.add_argument("--ls-iterations", type=int, default=None)
     args = parser.parse_args()
     compile_cache.enable()
-    overrides = {k: v for k, v in (("solver_iterations", args.iterations),
-                                   ("ls_iterations", args.ls_iterations)) if v is not None}  # fmt: skip
+    overrides = {
+        k: v
+        for k, v in (("solver_iterations", args.iterations), ("ls_iterations", args.ls_iterations))
+        if v is not None
+    }
     env = make(args.task, physics="native", **overrides)
     m = mjx.put_model(env.model)
     d = batched_data(env, args.batch)
@@ -62,22 +65,40 @@ def main() -> None:
     )(d_pos)
     stages = {
         "step": (lambda d: mjx.step(m, d), d),
-        "fwd_position (kinematics, inertia, collision, constraints)": (lambda d: mjx.fwd_position(m, d), d),
+        "fwd_position (kinematics, inertia, collision, constraints)": (
+            lambda d: mjx.fwd_position(m, d),
+            d,
+        ),
         "collision": (lambda d: mjx.collision(m, d), d),
         "make_constraint": (lambda d: mjx.make_constraint(m, d), d),
         "fwd_velocity + actuation + acceleration": (
-            lambda d: mjx.fwd_acceleration(m, mjx.fwd_actuation(m, mjx.fwd_velocity(m, d))), d_pos),
+            lambda d: mjx.fwd_acceleration(m, mjx.fwd_actuation(m, mjx.fwd_velocity(m, d))),
+            d_pos,
+        ),
         "solve (constraint solver)": (lambda d: mjx.solve(m, d), d_fwd),
         "sensors (pos + vel)": (lambda d: mjx.sensor_vel(m, mjx.sensor_pos(m, d)), d_fwd),
-    }  # fmt: skip
+    }
     times = {}
     for name, (fn, data) in stages.items():
         times[name] = time_ms(jax.jit(jax.vmap(fn)), data)
-        row = {"stage": name, "batch": args.batch, "ms": round(times[name], 2),
-               "share_of_step": round(times[name] / times["step"], 3)}  # fmt: skip
+        row = {
+            "stage": name,
+            "batch": args.batch,
+            "ms": round(times[name], 2),
+            "share_of_step": round(times[name] / times["step"], 3),
+        }
         print(json.dumps(row), flush=True)
-    print(json.dumps({"task": args.task, "batch": args.batch, **overrides, "physics_steps_per_s": round(args.batch / times["step"] * 1e3),
-                      **{k: round(v, 2) for k, v in times.items()}}))  # fmt: skip
+    print(
+        json.dumps(
+            {
+                "task": args.task,
+                "batch": args.batch,
+                **overrides,
+                "physics_steps_per_s": round(args.batch / times["step"] * 1e3),
+                **{k: round(v, 2) for k, v in times.items()},
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -67,8 +67,15 @@ def ours_matched_throughput(task: str, envs: int, seed: int = 0, min_steps: int 
     episodes, then runs as many updates as it took env steps. Networks without LayerNorm,
     as SB3's."""
     T = ENVS[task].default_episode_length
-    cfg = TrainConfig(task=task, replay_capacity=200_000, progress=False, seed=seed,
-                      envs=envs, cycles=1, updates_per_cycle=envs * T)  # fmt: skip
+    cfg = TrainConfig(
+        task=task,
+        replay_capacity=200_000,
+        progress=False,
+        seed=seed,
+        envs=envs,
+        cycles=1,
+        updates_per_cycle=envs * T,
+    )
     _, _, carry, cycles_fn = _compiled_cycles(cfg, DDPGConfig(layer_norm=False))
     carry, _ = cycles_fn(carry)  # the first cycle fills the buffer from empty; not timed
     jax.block_until_ready(carry)
@@ -98,11 +105,22 @@ def run_ours(task: str, epochs: int, layer_norm: bool, seed: int = 0) -> dict:
         jax.block_until_ready(carry)
         train_s += time.perf_counter() - t_epoch
         metrics = evaluate(carry.agent, None, jax.random.fold_in(jax.random.PRNGKey(10_000), epoch))
-        curve.append({"env_steps": epoch * steps, "wall_s": compile_s + train_s,
-                      "train_s": train_s, "eval_success": float(metrics["eval_success"])})  # fmt: skip
+        curve.append(
+            {
+                "env_steps": epoch * steps,
+                "wall_s": compile_s + train_s,
+                "train_s": train_s,
+                "eval_success": float(metrics["eval_success"]),
+            }
+        )
     updates = cfg.cycles * cfg.updates_per_cycle
-    return {"env_steps_per_s": steps * epochs / train_s, "updates_per_env_step": updates / steps,
-            "layer_norm": layer_norm, "compile_s": compile_s, "curve": curve}  # fmt: skip
+    return {
+        "env_steps_per_s": steps * epochs / train_s,
+        "updates_per_env_step": updates / steps,
+        "layer_norm": layer_norm,
+        "compile_s": compile_s,
+        "curve": curve,
+    }
 
 
 LEARNING_STARTS = 1000
@@ -168,10 +186,18 @@ def run_sb3(task: str, algo: str, total_steps: int, seed: int = 0) -> dict:
     common = dict(
         replay_buffer_class=HerReplayBuffer,
         replay_buffer_kwargs=dict(n_sampled_goal=4, goal_selection_strategy="future"),
-        learning_rate=1e-3, batch_size=128, gamma=0.98, tau=0.05, buffer_size=200_000,
-        learning_starts=LEARNING_STARTS, train_freq=1, gradient_steps=1, seed=seed, verbose=0,
+        learning_rate=1e-3,
+        batch_size=128,
+        gamma=0.98,
+        tau=0.05,
+        buffer_size=200_000,
+        learning_starts=LEARNING_STARTS,
+        train_freq=1,
+        gradient_steps=1,
+        seed=seed,
+        verbose=0,
         policy_kwargs=dict(net_arch=[64, 64, 64]),
-    )  # fmt: skip
+    )
     if algo == "ddpg":
         noise = NormalActionNoise(np.zeros(4), 0.2 * np.ones(4))
         model = DDPG("MultiInputPolicy", env, action_noise=noise, **common)
@@ -205,8 +231,13 @@ def plot(results: dict[tuple[str, str], list[dict]], path: str) -> None:
                 xs = [p["env_steps"] for p in res["curve"]], [p["wall_s"] for p in res["curve"]]
                 ys = [p["eval_success"] for p in res["curve"]]
                 for col in (0, 1):
-                    axes[row, col].plot(xs[col], ys, color=f"C{colour}", alpha=1.0 if i == 0 else 0.45,
-                                        label=algo if i == 0 else None)  # fmt: skip
+                    axes[row, col].plot(
+                        xs[col],
+                        ys,
+                        color=f"C{colour}",
+                        alpha=1.0 if i == 0 else 0.45,
+                        label=algo if i == 0 else None,
+                    )
         for col, label in enumerate(["env steps", "training wall-clock s (2-core CPU)"]):
             axes[row, col].set(xlabel=label, ylabel=f"{task}: eval success", ylim=(-0.02, 1.02))
             axes[row, col].grid(alpha=0.3)
@@ -233,15 +264,24 @@ def summarize(
     }
     to_90 = [time_to(r["curve"]) for r in ours]
     return {
-        "task": task, "env_steps": env_steps, "device": jax.default_backend(),
-        "cores": os.cpu_count(), "seeds": len(ours), "updates_per_env_step": 1.0,
-        "ours_envs": matched_envs[-1], "ours_env_steps_per_s": by_envs[matched_envs[-1]],
-        "sb3_env_steps_per_s": sb3_rate, "ratio": round(by_envs[matched_envs[-1]] / sb3_rate, 2),
+        "task": task,
+        "env_steps": env_steps,
+        "device": jax.default_backend(),
+        "cores": os.cpu_count(),
+        "seeds": len(ours),
+        "updates_per_env_step": 1.0,
+        "ours_envs": matched_envs[-1],
+        "ours_env_steps_per_s": by_envs[matched_envs[-1]],
+        "sb3_env_steps_per_s": sb3_rate,
+        "ratio": round(by_envs[matched_envs[-1]] / sb3_rate, 2),
         **{f"ours_env_steps_per_s_{e}_envs": r for e, r in by_envs.items()},
         **{f"ratio_{e}_envs": round(r / sb3_rate, 2) for e, r in by_envs.items()},
-        "ours_time_to_90_s": median(to_90), "sb3_time_to_90_s": median([time_to(r["curve"]) for r in sb3]),
-        "ours_time_to_90_warm_s": median([t and t - r["compile_s"] for t, r in zip(to_90, ours, strict=True)]),
-    }  # fmt: skip
+        "ours_time_to_90_s": median(to_90),
+        "sb3_time_to_90_s": median([time_to(r["curve"]) for r in sb3]),
+        "ours_time_to_90_warm_s": median(
+            [t and t - r["compile_s"] for t, r in zip(to_90, ours, strict=True)]
+        ),
+    }
 
 
 def main() -> None:
@@ -292,10 +332,21 @@ def main() -> None:
                 results.setdefault((task, name), []).append(res)
                 summary_row = {k: v for k, v in res.items() if k != "curve"}
                 steps = total if name.startswith("ours") else sb3_total
-                print(json.dumps({"task": task, "algo": name, "seed": seed, "env_steps": steps,
-                                  **summary_row, "final_success": res["curve"][-1]["eval_success"],
-                                  "time_to_90_s": time_to(res["curve"]),
-                                  "env_steps_to_90": time_to(res["curve"], key="env_steps")}), flush=True)  # fmt: skip
+                print(
+                    json.dumps(
+                        {
+                            "task": task,
+                            "algo": name,
+                            "seed": seed,
+                            "env_steps": steps,
+                            **summary_row,
+                            "final_success": res["curve"][-1]["eval_success"],
+                            "time_to_90_s": time_to(res["curve"]),
+                            "env_steps_to_90": time_to(res["curve"], key="env_steps"),
+                        }
+                    ),
+                    flush=True,
+                )
         if task == "transit" and "ddpg" in args.algos:
             summary = summarize(
                 task,

@@ -173,12 +173,15 @@ def main() -> None:
         raw = raw_native_env_steps_per_s(native_env, batch, args.native_steps)
         native, native_compile = env_steps_per_s(native_env, batch, args.native_steps)
         row = {
-            "task": args.task, "batch": batch, "cores": cores, "device": jax.default_backend(),
+            "task": args.task,
+            "batch": batch,
+            "cores": cores,
+            "device": jax.default_backend(),
             "native_raw_env_steps_per_s": round(raw, 1),
             "native_jit_env_steps_per_s": round(native, 1),
             "ratio_native_jit": round(native / raw, 3),
             "native_compile_s": round(native_compile, 1),
-        }  # fmt: skip
+        }
         if mjx_env is not None:
             mjx_sps, mjx_compile = env_steps_per_s(mjx_env, batch, args.mjx_steps)
             row.update(

@@ -44,9 +44,14 @@ def measure(lib, env, obs, goal, K: int, batch: int, leaf: str, repeats: int = 3
         t0 = time.perf_counter()
         jax.block_until_ready(fn(o, g, jax.random.PRNGKey(i + 1)))
         times.append(time.perf_counter() - t0)
-    return {"K": K, "batch": batch, "leaf_state": leaf, "search_s": min(times),
-            "compile_s": round(compile_s, 1),
-            "edges_per_env": sum(K**h for h in range(1, cfg.height + 1))}  # fmt: skip
+    return {
+        "K": K,
+        "batch": batch,
+        "leaf_state": leaf,
+        "search_s": min(times),
+        "compile_s": round(compile_s, 1),
+        "edges_per_env": sum(K**h for h in range(1, cfg.height + 1)),
+    }
 
 
 def main() -> None:
@@ -65,10 +70,14 @@ def main() -> None:
         row = measure(lib, env, state.obs, state.desired_goal, K, batch, leaf)
         per_decision = row["search_s"] / batch
         episode = per_decision * args.searches_per_episode
-        row.update(decisions_per_s=round(1.0 / per_decision, 1), episode_search_s=round(episode, 5),
-                   searches_per_episode=args.searches_per_episode,
-                   speedup_vs_thesis=round(THESIS_EPISODE_S[K] / episode, 1), cores=os.cpu_count(),
-                   device=jax.default_backend())  # fmt: skip
+        row.update(
+            decisions_per_s=round(1.0 / per_decision, 1),
+            episode_search_s=round(episode, 5),
+            searches_per_episode=args.searches_per_episode,
+            speedup_vs_thesis=round(THESIS_EPISODE_S[K] / episode, 1),
+            cores=os.cpu_count(),
+            device=jax.default_backend(),
+        )
         row["search_s"] = round(row["search_s"], 4)
         print(json.dumps(row), flush=True)
         if (K, batch, leaf) == (5, 256, "predicted"):  # the default search

@@ -25,9 +25,21 @@ from pathlib import Path
 def run(experiment: str, jobs: int, root: Path, extra: list[str]) -> tuple[float, list[dict]]:
     """Wall seconds of one sweep and its per-seed rows without the wall-clock column."""
     env = {**os.environ, "MJX_SKILLS_CACHE_DIR": "off"}
-    cmd = [sys.executable, "-m", "mjx_skills.sweep", "--experiment", experiment,
-           "--jobs", str(jobs), "--sweep-dir", str(root / "cells"),
-           "--results", str(root / "results"), "--no-progress", *extra]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "mjx_skills.sweep",
+        "--experiment",
+        experiment,
+        "--jobs",
+        str(jobs),
+        "--sweep-dir",
+        str(root / "cells"),
+        "--results",
+        str(root / "results"),
+        "--no-progress",
+        *extra,
+    ]
     t0 = time.perf_counter()
     subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL)
     wall = time.perf_counter() - t0
@@ -48,14 +60,23 @@ def main() -> None:
         pinned_s, pinned = run(args.experiment, args.jobs, Path(tmp) / "pinned", [*extra, "--pin"])
     key = lambda r: (r["task"], r["method"], r["library"], r["epoch"], r["seed"])
     same = lambda a, b: sorted(a, key=key) == sorted(b, key=key)
-    print(json.dumps({
-        "experiment": args.experiment, "cells": len({key(r)[:3] for r in serial}),
-        "jobs": args.jobs, "cores": os.cpu_count(), "serial_s": round(serial_s, 1),
-        "epochs": args.epochs, "parallel_s": round(parallel_s, 1),
-        "speedup": round(serial_s / parallel_s, 3), "pinned_s": round(pinned_s, 1),
-        "speedup_pinned": round(serial_s / pinned_s, 3),
-        "identical": same(serial, parallel) and same(serial, pinned),
-    }))  # fmt: skip
+    print(
+        json.dumps(
+            {
+                "experiment": args.experiment,
+                "cells": len({key(r)[:3] for r in serial}),
+                "jobs": args.jobs,
+                "cores": os.cpu_count(),
+                "serial_s": round(serial_s, 1),
+                "epochs": args.epochs,
+                "parallel_s": round(parallel_s, 1),
+                "speedup": round(serial_s / parallel_s, 3),
+                "pinned_s": round(pinned_s, 1),
+                "speedup_pinned": round(serial_s / pinned_s, 3),
+                "identical": same(serial, parallel) and same(serial, pinned),
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -40,17 +40,29 @@ def timed_epochs(epoch_fn, carry, aux, epochs: int) -> tuple[float, float]:
 
 
 def measure(task: str, envs: int, epochs: int, physics: str) -> dict:
-    cfg = TrainConfig(task=task, envs=envs, cycles=1, updates_per_cycle=40, eval_episodes=envs,
-                      replay_capacity=200_000, progress=False)  # fmt: skip
+    cfg = TrainConfig(
+        task=task,
+        envs=envs,
+        cycles=1,
+        updates_per_cycle=40,
+        eval_episodes=envs,
+        replay_capacity=200_000,
+        progress=False,
+    )
     env, _, epoch_fn, carry = build("ddpg_her", cfg, EnvConfig(physics=physics))
     compile_s, wall = timed_epochs(epoch_fn, carry, None, epochs)
     steps = epochs * (cfg.envs * cfg.cycles + cfg.eval_episodes) * env.episode_length
     updates = epochs * cfg.cycles * cfg.updates_per_cycle
     return {
-        "task": task, "envs": envs, "physics": env.backend.name, "cores": os.cpu_count(),
-        "env_steps_per_s": round(steps / wall, 1), "updates_per_s": round(updates / wall, 1),
-        "epoch_s": round(wall / epochs, 3), "compile_s": round(compile_s, 1),
-    }  # fmt: skip
+        "task": task,
+        "envs": envs,
+        "physics": env.backend.name,
+        "cores": os.cpu_count(),
+        "env_steps_per_s": round(steps / wall, 1),
+        "updates_per_s": round(updates / wall, 1),
+        "epoch_s": round(wall / epochs, 3),
+        "compile_s": round(compile_s, 1),
+    }
 
 
 def pure_updates(layer_norm: bool, obs_dim: int = 25, n: int = 1000) -> dict:
@@ -65,16 +77,23 @@ def pure_updates(layer_norm: bool, obs_dim: int = 25, n: int = 1000) -> dict:
     key = jax.random.PRNGKey(0)
     agent = ddpg.init(key, obs_dim, 3, 4, cfg)
     b = cfg.batch_size
-    batches = {"obs": jax.random.normal(key, (n, b, obs_dim)), "next_obs": jax.random.normal(key, (n, b, obs_dim)),
-               "goal": jax.random.normal(key, (n, b, 3)), "action": jax.random.uniform(key, (n, b, 4)),
-               "reward": -jnp.ones((n, b))}  # fmt: skip
+    batches = {
+        "obs": jax.random.normal(key, (n, b, obs_dim)),
+        "next_obs": jax.random.normal(key, (n, b, obs_dim)),
+        "goal": jax.random.normal(key, (n, b, 3)),
+        "action": jax.random.uniform(key, (n, b, 4)),
+        "reward": -jnp.ones((n, b)),
+    }
     update = jax.jit(lambda a, bs: ddpg.update(a, bs, cfg)[0])
     run = update.lower(agent, batches).compile()
     one = update.lower(agent, jax.tree.map(lambda x: x[:1], batches)).compile()
     flops = one.cost_analysis()["flops"]
     rate = _best_rate(lambda: run(agent, batches), n)
-    return {"updates_per_s": round(rate, 1), "mflop_per_update": round(flops / 1e6, 2),
-            "update_gflops": round(rate * flops / 1e9, 1)}  # fmt: skip
+    return {
+        "updates_per_s": round(rate, 1),
+        "mflop_per_update": round(flops / 1e6, 2),
+        "update_gflops": round(rate * flops / 1e9, 1),
+    }
 
 
 def matmul_gflops(n: int = 5000) -> float:
@@ -113,12 +132,23 @@ def main() -> None:
     for layer_norm in (True, False):
         u = pure_updates(layer_norm)
         updates[layer_norm] = u
-        print(json.dumps({"layer_norm": layer_norm, **u, "matmul_gflops": peak,
-                          "ratio_to_matmul": round(u["update_gflops"] / peak, 2)}), flush=True)  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "layer_norm": layer_norm,
+                    **u,
+                    "matmul_gflops": peak,
+                    "ratio_to_matmul": round(u["update_gflops"] / peak, 2),
+                }
+            ),
+            flush=True,
+        )
     row = {}
     for envs in args.envs:
-        row = {**measure(args.task, envs, args.epochs, args.physics),
-               "pure_updates_per_s": updates[True]["updates_per_s"]}  # fmt: skip
+        row = {
+            **measure(args.task, envs, args.epochs, args.physics),
+            "pure_updates_per_s": updates[True]["updates_per_s"],
+        }
         print(json.dumps(row), flush=True)
     print(json.dumps(row))
 

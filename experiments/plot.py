@@ -31,8 +31,12 @@ def curve(rows: list[dict], x: str):
         xs[r["epoch"]] = r[x]
     epochs = sorted(by_epoch)
     vals = [np.asarray(by_epoch[e]) for e in epochs]
-    return (np.asarray([xs[e] for e in epochs]), np.asarray([v.mean() for v in vals]),
-            np.asarray([v.min() for v in vals]), np.asarray([v.max() for v in vals]))  # fmt: skip
+    return (
+        np.asarray([xs[e] for e in epochs]),
+        np.asarray([v.mean() for v in vals]),
+        np.asarray([v.min() for v in vals]),
+        np.asarray([v.max() for v in vals]),
+    )
 
 
 def main() -> None:

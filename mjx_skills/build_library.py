@@ -1,8 +1,13 @@
 """Build the skill library: train each skill, collect its data, fit its models, save.
 
     python -m mjx_skills.build_library                      # or `make skills`
+    python -m mjx_skills.build_library --robot fetch --library SL1_fetch  # make skills ROBOT=fetch
     python -m mjx_skills.build_library --out DIR --samples 100000
     python -m mjx_skills.build_library --table              # Table 5.1 of the library at --out
+    python -m mjx_skills.build_library --import my_skills.py --out DIR  # with your skills
+
+--import MODULE (your module registering skills, tasks or robots: a dotted name or a .py
+path; repeatable) is read before the other options.
 
 Phases, each with its progress bar and its time in the manifest: (1) DDPG+HER per skill on
 its skill env (grasp with held starts in training), its success measured on fresh episodes

@@ -1,7 +1,8 @@
-"""The results report, generated from the committed data: docs/results.md and its figures.
+"""The results report, generated from the committed data: docs/results.md, its figures and
+the README's results table.
 
-    python -m study.report            # writes docs/results.md and docs/figures/*.png
-    python -m study.report --check    # fails if docs/results.md is not what the data gives
+    python -m study.report            # writes docs/results.md, its figures, the README's table
+    python -m study.report --check    # fails if either page is not what the data gives
 
 Reads the finished cells of the thesis's experiments from the cell store
 (`experiments/results/cells/`, `mjx_skills.sweeps.cells`; a cell counts only if today's definition

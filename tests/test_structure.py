@@ -70,22 +70,30 @@ def test_no_import_circles():
     assert all(n in config for m in config for n in graph[m]), {m: graph[m] for m in config}
 
 
+OURS = ("mjx_skills", "study", "tests", "benchmarks", "experiments", "examples")
+"""The folders of this project's Python: the package, the study, the tests and the scripts."""
+
+
+def _ours() -> list[Path]:
+    return [p for folder in OURS for p in sorted((ROOT / folder).rglob("*.py"))]
+
+
 def test_modules_stay_readable():
-    """Every module of the package, the study and the tests is under MAX_LINES lines."""
+    """Every module of the package, the study, the tests and the scripts is under MAX_LINES
+    lines."""
     long = {
         str(p.relative_to(ROOT)): n
-        for p in (*PACKAGE.rglob("*.py"), *STUDY.rglob("*.py"), *(ROOT / "tests").rglob("*.py"))
+        for p in _ours()
         if (n := len(p.read_text().splitlines())) > MAX_LINES
     }
     assert not long, f"modules over {MAX_LINES} lines: {long}"
 
 
 def test_no_module_is_packed_into_its_line_count():
-    """The package, study/ and the tests are as `ruff format` writes them (the lint checks
-    that): no `# fmt: skip` keeps a module under the cap by packing lines."""
+    """The package, study/, the tests and the scripts are as `ruff format` writes them (the
+    lint checks that): no `# fmt: skip` keeps a module under the cap by packing lines."""
     marker = re.compile(r"#\s*fmt:\s*skip\s*$", re.MULTILINE)
-    modules = (*PACKAGE.rglob("*.py"), *STUDY.rglob("*.py"), *(ROOT / "tests").rglob("*.py"))
-    packed = [str(p.relative_to(ROOT)) for p in modules if marker.search(p.read_text())]
+    packed = [str(p.relative_to(ROOT)) for p in _ours() if marker.search(p.read_text())]
     assert not packed, packed
 
 

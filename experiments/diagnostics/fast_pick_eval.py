@@ -65,18 +65,22 @@ def failures(run: evaluation.TrainedRun, key: jax.Array, episodes: int) -> dict:
     rise = g[:, :, -1, 2] - ag[:, :, 0, 2]
     moved = np.linalg.norm(ag[:, :, -1] - ag[:, :, 0], axis=-1) > 0.02
     q = lambda x: np.quantile(x, [0.1, 0.25, 0.5, 0.75, 0.9]).round(3).tolist()  # noqa: E731
-    return {"failed": int(fail.sum()), "of": int(fail.size),
-            "final_distance_quantiles": q(after[fail][:, -1]),
-            "ever_within_threshold": round(float((after[fail].min(-1) < env.threshold).mean()), 2),
-            "holding_at_end": round(float(held[fail].mean()), 2),
-            "cube_moved": round(float(moved[fail].mean()), 2),
-            "goal_above_start_failed": np.quantile(rise[fail], [0.25, 0.5, 0.75]).round(3).tolist(),
-            "goal_above_start_solved": np.quantile(rise[~fail], [0.25, 0.5, 0.75]).round(3).tolist()}  # fmt: skip
+    return {
+        "failed": int(fail.sum()),
+        "of": int(fail.size),
+        "final_distance_quantiles": q(after[fail][:, -1]),
+        "ever_within_threshold": round(float((after[fail].min(-1) < env.threshold).mean()), 2),
+        "holding_at_end": round(float(held[fail].mean()), 2),
+        "cube_moved": round(float(moved[fail].mean()), 2),
+        "goal_above_start_failed": np.quantile(rise[fail], [0.25, 0.5, 0.75]).round(3).tolist(),
+        "goal_above_start_solved": np.quantile(rise[~fail], [0.25, 0.5, 0.75]).round(3).tolist(),
+    }
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    p = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("run_dir", type=Path)
     p.add_argument("--epoch", type=int, required=True)
     p.add_argument("--episodes", type=int, default=100)
@@ -89,14 +93,25 @@ def main() -> None:
         run = at_epoch(args.run_dir, args.epoch, Path(tmp) / "run")
         if run.args.method != "ddpg_her_sl_fast":
             raise SystemExit(f"error: {args.run_dir} is a run of {run.args.method}")
-        variants = {"actor": variant(run, fast={"pick": False}),
-                    **{f"proposals={n}": variant(run, fast={"proposals": n}) for n in args.proposals},
-                    "exact_goals": variant(run, search={"transfer_goal_noise": 0.0})}  # fmt: skip
+        variants = {
+            "actor": variant(run, fast={"pick": False}),
+            **{f"proposals={n}": variant(run, fast={"proposals": n}) for n in args.proposals},
+            "exact_goals": variant(run, search={"transfer_goal_noise": 0.0}),
+        }
         for name, v in variants.items():
             success, _ = evaluation.evaluate_jax(v, key, args.episodes)
-            print(json.dumps({"epoch": run.epoch, "variant": name, "episodes": args.episodes,
-                              "success": round(float(success.mean()), 3),
-                              "per_seed": [round(float(x), 2) for x in success]}), flush=True)  # fmt: skip
+            print(
+                json.dumps(
+                    {
+                        "epoch": run.epoch,
+                        "variant": name,
+                        "episodes": args.episodes,
+                        "success": round(float(success.mean()), 3),
+                        "per_seed": [round(float(x), 2) for x in success],
+                    }
+                ),
+                flush=True,
+            )
         print(json.dumps({"epoch": run.epoch, **failures(run, key, args.episodes)}))
 
 

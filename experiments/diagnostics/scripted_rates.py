@@ -61,13 +61,15 @@ def section() -> str:
         if low >= BAR
         else f"the lowest is {low:.2f}, under the bar of {BAR * 100:.0f} %"
     )
-    return "\n".join([BEGIN, "", f"{rates}: {verdict}, with this physics and these predicates.",
-                      "", END])  # fmt: skip
+    return "\n".join(
+        [BEGIN, "", f"{rates}: {verdict}, with this physics and these predicates.", "", END]
+    )
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    p = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--measure", action="store_true", help="run the controllers, write the data")
     p.add_argument("--write", action="store_true", help="replace the section in the page")
     args = p.parse_args()
@@ -77,9 +79,17 @@ def main() -> None:
         from mjx_skills.skills.library import provenance
 
         made_by = provenance()
-        rows = [{"env": name, "episodes": EPISODES, "seed": SEED,
-                 "success": measure(make(name, physics="native")),
-                 "commit": made_by["commit"], "scenes": made_by["scenes"]} for name in ENVS]  # fmt: skip
+        rows = [
+            {
+                "env": name,
+                "episodes": EPISODES,
+                "seed": SEED,
+                "success": measure(make(name, physics="native")),
+                "commit": made_by["commit"],
+                "scenes": made_by["scenes"],
+            }
+            for name in ENVS
+        ]
         RESULTS.write_text("".join(json.dumps(row) + "\n" for row in rows))
         print(f"wrote {RESULTS}")
     text = section()

@@ -42,15 +42,29 @@ def main() -> None:
     env, (lib, _) = make(args.task), load(DEFAULT_DIR)
     config = DDPGConfig()
     agent = ddpg.init(jax.random.PRNGKey(0), env.obs_dim, env.goal_dim, 4, config)
-    explorer = ddpg_her_sl.make_behaviour(agent, lib, jnp.zeros((), jnp.int32), env,
-                                          SearchConfig(eps_start=1.0, eps_end=1.0, grasp_reach=args.grasp_reach), config)  # fmt: skip
+    explorer = ddpg_her_sl.make_behaviour(
+        agent,
+        lib,
+        jnp.zeros((), jnp.int32),
+        env,
+        SearchConfig(eps_start=1.0, eps_end=1.0, grasp_reach=args.grasp_reach),
+        config,
+    )
 
     def step(ps, key, state):
         ps, action, record = explorer.step(ps, key, state)
         view = lookahead.take_row(object_views(env, state.obs), ps.obj)
-        return ps, action, {**record, "skill": ps.run.skill, "view": view,
-                            "held": env.grasped(view),
-                            "p": lib.success_prob(ps.run.skill, view, ps.run.goal)}  # fmt: skip
+        return (
+            ps,
+            action,
+            {
+                **record,
+                "skill": ps.run.skill,
+                "view": view,
+                "held": env.grasped(view),
+                "p": lib.success_prob(ps.run.skill, view, ps.run.goal),
+            },
+        )
 
     behaviour = rollout.Behaviour(init=explorer.init, step=step)
     _, final, rec = jax.jit(lambda k: rollout.run_episodes(env, behaviour, k, args.envs))(
@@ -68,15 +82,26 @@ def main() -> None:
             held = bool(rec["held"][e, after]) and cube_of[e, after] == cube
             reach = float(np.linalg.norm(view[0:3] - view[3:6]))
             kinds["first" if i == 0 else "later"].append((held, reach, rec["p"][e, t]))
-    out = {"task": args.task, "episodes": args.envs, "grasp_reach": args.grasp_reach,
-           "solved": float(final.metrics["success"].mean()),
-           "cubes_at_goal": float(getattr(env, "cube_success", env.is_success)(final.achieved_goal, final.desired_goal).mean())}  # fmt: skip
+    out = {
+        "task": args.task,
+        "episodes": args.envs,
+        "grasp_reach": args.grasp_reach,
+        "solved": float(final.metrics["success"].mean()),
+        "cubes_at_goal": float(
+            getattr(env, "cube_success", env.is_success)(
+                final.achieved_goal, final.desired_goal
+            ).mean()
+        ),
+    }
     for kind, rows in kinds.items():
         if rows:
             held, reach, p = (np.array(x) for x in zip(*rows, strict=True))
-            out[f"{kind}_grasps"] = {"n": len(rows), "holding_after_10_steps": round(held.mean(), 2),
-                                     "grip_to_cube_m": round(float(np.median(reach)), 3),
-                                     "classifier_p": round(float(np.median(p)), 2)}  # fmt: skip
+            out[f"{kind}_grasps"] = {
+                "n": len(rows),
+                "holding_after_10_steps": round(held.mean(), 2),
+                "grip_to_cube_m": round(float(np.median(reach)), 3),
+                "classifier_p": round(float(np.median(p)), 2),
+            }
     print(json.dumps(out))
 
 

@@ -66,8 +66,12 @@ def stages(at_goal: np.ndarray, held: np.ndarray, last: np.ndarray) -> dict:
         "cubes_at_goal_at_end": [share(end == k) for k in range(3)],
         "a_cube_ever_there": share(ever.any(-1)),
         "both_ever_there": share(ever.all(-1)),
-        "first_cube_there_at_step": float(np.median(first[first < T])) if (first < T).any() else None,
-        "cubes_there_that_left": round(float((ever & ~at_goal[:, -1]).sum() / max(ever.sum(), 1)), 2),
+        "first_cube_there_at_step": float(np.median(first[first < T]))
+        if (first < T).any()
+        else None,
+        "cubes_there_that_left": round(
+            float((ever & ~at_goal[:, -1]).sum() / max(ever.sum(), 1)), 2
+        ),
         "one_there": {
             "episodes": int(one_in.sum()),
             "other_cube_held_after": share(later[one_in]),
@@ -75,13 +79,17 @@ def stages(at_goal: np.ndarray, held: np.ndarray, last: np.ndarray) -> dict:
             "other_on_top_of_the_first": share(on_top[one_in]),
             "steps_left_median": float(np.median(T - first[one_in])) if one_in.any() else None,
         },
-        "none_there": {"episodes": int(none.sum()), "a_cube_ever_held": share(held[none].any((1, 2)))},
-    }  # fmt: skip
+        "none_there": {
+            "episodes": int(none.sum()),
+            "a_cube_ever_held": share(held[none].any((1, 2))),
+        },
+    }
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    p = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("run_dir", type=Path)
     p.add_argument("--episodes", type=int, default=40)
     p.add_argument("--seed", type=int, default=10000)

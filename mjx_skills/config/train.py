@@ -37,7 +37,8 @@ class TrainConfig:
     """Results go to OUT/<task>/<method>/<timestamp>/."""
     progress: bool = True  # draw a progress bar
     track: bool = False
-    """Also log to Weights & Biases (`pip install wandb`; WANDB_MODE=offline keeps it local)."""
+    """Also log to Weights & Biases (the track extra: `pip install -e '.[track]'`, or `pip
+    install wandb`; WANDB_MODE=offline keeps it local)."""
     wandb_project: str = "mjx_skills"
     """The W&B project `track` logs to."""
 

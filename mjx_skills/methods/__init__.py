@@ -47,10 +47,6 @@ class Method:
     """Whether its evaluation behaviour is the flat DDPG actor alone (an observation and goal
     in, an action out), so that another env implementation can replay it
     (`evaluate --physics gym`)."""
-    earlier: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
-    """Option fields whose default changed after they were added ("group" -> {field: the
-    value the code had before the field existed}): a run's config.json or a stored cell's
-    definition that lacks one was made at that value, not at today's default."""
 
     @property
     def library_group(self) -> str | None:
@@ -309,7 +305,6 @@ METHODS: dict[str, Method] = {
         make_learner=make_ddpg_her_sl_fast,
         unread={"train.updates_per_cycle": "--fast.updates-per-cycle"},
         unread_unless={"fast.proposals": "pick", "fast.pick_in_training": "pick"},
-        earlier={"fast": {"pick_in_training": True, "eval_average": 0.0}},
     ),
 }
 """Every method by name, in the thesis's order (its two baselines, its approach 1 and its

@@ -72,15 +72,13 @@ def definition(cell) -> dict[str, Any]:
 
 
 def defaults(method: str) -> dict[str, Any]:
-    """The config of a run of `method` as JSON reads back, every field at the value a stored
-    definition that lacks it was made at: its default, or its earlier one (`Method.earlier`)."""
+    """The config of a run of `method` as JSON reads back, every field at its default: the
+    value a migrated config (`training.schema.migrate`) that lacks a field was made at."""
     from mjx_skills import methods
     from mjx_skills.config import EnvConfig, TrainConfig
 
     spec = methods.get(method)
     groups = {name: dataclasses.asdict(opt) for name, opt in spec.options.items()}
-    for group, fields in spec.earlier.items():
-        groups[group] = {**groups[group], **fields}
     raw = {
         "train": dataclasses.asdict(TrainConfig()),
         "env": dataclasses.asdict(EnvConfig()),
@@ -107,8 +105,12 @@ def differences(old: Any, new: Any, path: str = "", default: Any = None) -> list
 
 
 def _config_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
-    """`differences` of two configs, but in the options the new one's method does not read
-    (`Method.unread_now`: they cannot change its results)."""
+    """`differences` of two configs, both migrated to today's layout (`training.schema`), but
+    in the options the new one's method does not read (`Method.unread_now`: they cannot
+    change its results)."""
+    from mjx_skills.training.schema import migrate
+
+    old, new = migrate(old), migrate(new)
     unread = _unread(new)
     return [
         d

@@ -101,13 +101,14 @@ def stored_epoch_s(cell: Cell, store: Path = STORE) -> float:
         verify,
     )
     from mjx_skills.training.metrics_log import wall_seconds
+    from mjx_skills.training.schema import migrate
 
     options = run_config(cell.run_args(out="", progress=False))["options"]
     default = defaults(cell.method)["options"]
     found = []
     for d in sorted(store.glob(f"*-{cell.method}-*")):
         verify(d, ("definition.json",))  # damage is named, never used
-        config = read_json(d / "definition.json")["config"]
+        config = migrate(read_json(d / "definition.json")["config"])
         if config["method"] != cell.method:
             continue
         metrics = read_stored_metrics(d)

@@ -30,6 +30,7 @@ from mjx_skills.training.checkpoint import Checkpoints
 from mjx_skills.training.epoch import build, committed, host_metrics
 from mjx_skills.training.interrupt import deferred_stop
 from mjx_skills.training.metrics_log import MetricsWriter, progress_bar, read_metrics
+from mjx_skills.training.schema import SCHEMA, migrate
 from mjx_skills.training.trackers import check_track
 
 
@@ -75,13 +76,15 @@ def new_run_dir(args: RunArgs) -> Path:
 
 
 def config_dict(args: RunArgs) -> dict[str, Any]:
-    """What defines a run, as config.json holds it (without the package version)."""
+    """What defines a run, as config.json holds it (without the package version), with the
+    layout's number (`schema.SCHEMA`)."""
     groups = {name: dataclasses.asdict(opt) for name, opt in args.full_options().items()}
     return {
         "method": args.method,
         "train": dataclasses.asdict(args.train),
         "env": dataclasses.asdict(args.env),
         "options": groups,
+        "schema": SCHEMA,
     }
 
 
@@ -115,11 +118,10 @@ def load_config(run_dir: Path) -> RunArgs:
         raise ValueError(
             f"{path} was written by an earlier version (no method options); start a new run"
         )
+    raw = migrate(raw)  # written by earlier code: as that code ran it
     spec = methods.get(raw["method"])
-    # a field added since the run was written: at the value the code had then
     options = {
-        name: from_dict(type(spec.options[name]), {**spec.earlier.get(name, {}), **group})
-        for name, group in raw["options"].items()
+        name: from_dict(type(spec.options[name]), group) for name, group in raw["options"].items()
     }
     return RunArgs(
         train=from_dict(TrainConfig, raw["train"]),

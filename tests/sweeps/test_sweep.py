@@ -274,23 +274,24 @@ def test_a_longer_budget_trains_on_from_the_shorter_cells_run(finished_sweep, tm
 
 
 def test_a_field_whose_default_changed_matches_older_definitions_at_its_earlier_value():
-    """A stored definition lacking `fast.pick_in_training` was made with the pick in training
-    (`Method.earlier`), today's default being off: it matches a cell that sets it on, not one
-    at today's default. An option the method does not read with the cell's switches (the
-    pick's options with `fast.pick` off) is no difference."""
+    """A stored definition of schema 1 lacking `fast.pick_in_training` was made with the pick
+    in training (`training.schema`'s step 1 -> 2), today's default being off: it matches a
+    cell that sets it on, not one at today's default. An option the method does not read
+    with the cell's switches (the pick's options with `fast.pick` off) is no difference."""
     from mjx_skills.sweeps import cells
 
     second = load_experiment("fast").cells()[0]  # pins the second default's values
     new = cells.definition(second)["config"]
     old = json.loads(json.dumps(new))
+    del old["schema"]  # written before the layout was numbered
     del old["options"]["fast"]["pick_in_training"], old["options"]["fast"]["eval_average"]
     assert new["options"]["fast"]["pick_in_training"] is True
     assert cells._config_differences(old, new) == []
     today = json.loads(json.dumps(new))
     today["options"]["fast"].update(pick_in_training=False, eval_average=0.8)
     assert cells._config_differences(old, today) == [
-        "options.fast.eval_average: None != 0.8",
-        "options.fast.pick_in_training: None != False",
+        "options.fast.eval_average: 0.0 != 0.8",
+        "options.fast.pick_in_training: True != False",
     ]
     no_pick = json.loads(json.dumps(new))
     no_pick["options"]["fast"].update(pick=False, proposals=32)
@@ -306,7 +307,7 @@ def test_a_field_whose_default_changed_matches_older_definitions_at_its_earlier_
 def test_a_run_written_before_a_default_changed_loads_at_the_earlier_value(tmp_path):
     """A ddpg_her_sl_fast run whose config.json predates `fast.eval_average` and
     `fast.pick_in_training` resumes as it was made: online networks evaluated, the pick in
-    training (`Method.earlier`), not at today's defaults."""
+    training (`training.schema`'s step 1 -> 2), not at today's defaults."""
     from mjx_skills.methods.ddpg_her_sl_fast import FastConfig
     from mjx_skills.training import runner
 
@@ -315,6 +316,7 @@ def test_a_run_written_before_a_default_changed_loads_at_the_earlier_value(tmp_p
     raw = json.loads((tmp_path / "config.json").read_text())
     assert raw["options"]["fast"]["eval_average"] == FastConfig().eval_average == 0.8
     del raw["options"]["fast"]["eval_average"], raw["options"]["fast"]["pick_in_training"]
+    del raw["schema"]  # written before the layout was numbered
     (tmp_path / "config.json").write_text(json.dumps(raw))
     fast = runner.load_config(tmp_path).options["fast"]
     assert fast.eval_average == 0.0 and fast.pick_in_training is True
