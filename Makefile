@@ -6,14 +6,11 @@ STAMP   := $(VENV)/.stamp-setup
 TASK    ?= pick_move
 METHOD  ?=
 EPOCHS  ?= 100
-# A Fetch task trains with the skills built on Fetch (`--preset fetch`, their library);
-# FetchPush, whose fingers are blocked, with the push library (`--preset fetch_push`).
+# A Fetch task trains with the skills built on Fetch (`--preset fetch`, their library).
 FETCH   := $(filter fetch_%,$(TASK))
-PUSH    := $(filter fetch_push,$(TASK))
+LIBRARY := experiments/skill_library$(if $(FETCH),_fetch)
 ROBOT   ?= $(if $(FETCH),fetch,baxter)
-SKILL_LIBRARY ?= $(if $(PUSH),SL_fetch_push,$(if $(filter fetch,$(ROBOT)),SL1_fetch))
-LIBRARY := experiments/skill_library$(if $(PUSH),_SL_fetch_push,$(if $(FETCH),_fetch))
-PRESET  ?= $(if $(PUSH),fetch_push,$(if $(FETCH),fetch))
+PRESET  ?= $(if $(FETCH),fetch)
 SEEDS   ?= 1
 OUT     ?= runs
 ARGS    ?=
@@ -31,14 +28,13 @@ $(STAMP): pyproject.toml
 # The CLI's default method (DDPG+HER+SL) unless METHOD=...; a library method builds the skill
 # library first if there is none (on Fetch for a Fetch task: make train TASK=fetch_pick_and_place).
 train: setup
-	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills ROBOT=$(ROBOT) SKILL_LIBRARY=$(SKILL_LIBRARY); fi
+	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills ROBOT=$(ROBOT); fi
 	$(BIN)/python -m mjx_skills.train $(METHOD) $(if $(PRESET),--preset $(PRESET)) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
 
 # Train transit / grasp / transfer, collect their data, fit their models.
-# ROBOT=fetch builds the same skills on Fetch into experiments/skill_library_fetch;
-# ROBOT=fetch SKILL_LIBRARY=SL_fetch_push the push library into experiments/skill_library_SL_fetch_push.
+# ROBOT=fetch builds the same skills on Fetch into experiments/skill_library_fetch.
 skills: setup
-	$(BIN)/python -m mjx_skills.build_library --robot $(ROBOT) $(if $(SKILL_LIBRARY),--library $(SKILL_LIBRARY)) $(ARGS)
+	$(BIN)/python -m mjx_skills.build_library --robot $(ROBOT) $(ARGS)
 
 # The thesis's experiments: make sweep ARGS="--experiment fig6_3" (see --list).
 sweep: setup
