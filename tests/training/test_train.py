@@ -13,17 +13,9 @@ from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.training import epoch as train_mod
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, check_finite, load_config, train_run
+from tests.fakes import tiny_train
 
-# A tiny budget: every code path of an epoch, compiled in seconds.
-TINY = dict(
-    task="transit",
-    envs=2,
-    cycles=2,
-    updates_per_cycle=5,
-    eval_episodes=2,
-    replay_capacity=2000,
-    progress=False,
-)
+TINY = tiny_train()  # every code path of an epoch, compiled in seconds
 
 
 def tiny_args(tmp_path, **overrides):
@@ -326,15 +318,7 @@ def test_training_only_starts_never_reach_the_evaluation_episodes(
         return real(learner, env, cfg, eval_env)
 
     monkeypatch.setattr(train_mod, "make_train_epoch", spy)
-    cfg = TrainConfig(
-        task=task,
-        envs=2,
-        cycles=1,
-        updates_per_cycle=1,
-        eval_episodes=2,
-        replay_capacity=1000,
-        progress=False,
-    )
+    cfg = TrainConfig(**tiny_train(task=task, cycles=1, updates_per_cycle=1, replay_capacity=1000))
     from mjx_skills import methods
 
     train_mod._build_program(
