@@ -5,35 +5,22 @@ exploration ended, and when it reached the target's level on its own afterwards.
 
 from __future__ import annotations
 
-import numpy as np
-
 from mjx_skills.analysis import stats
-from mjx_skills.sweeps.experiment_file import names, raw
-
-
-def _by_epoch(rows: list[dict], key: str) -> np.ndarray:
-    """(epochs,) the seeds' mean of `key` per epoch, epoch 1 first."""
-    epochs = max(r["epoch"] for r in rows)
-    total, count = np.zeros(epochs), np.zeros(epochs)
-    for r in rows:
-        total[r["epoch"] - 1] += r[key]
-        count[r["epoch"] - 1] += 1
-    return total / count
+from study.headlines import experiments
 
 
 def paragraph(found) -> list[str]:
     """One sentence per DDPG+HER+SL headline on a Fetch task among `found` ((label, cell,
     metrics rows) of the section's stored cells)."""
+    headlines = {exp.name: exp for exp in experiments()}
     out = []
     for label, cell, rows in found:
-        if label not in names() or cell.method != "ddpg_her_sl":
+        if label not in headlines or cell.method != "ddpg_her_sl":
             continue
-        exp = raw(label)
-        if exp.get("role") != "headline" or not exp.get("target"):
-            continue
-        level, target = exp["target"]["level"], exp["target"]["epoch"]
+        level, target = headlines[label].target["level"], headlines[label].target["epoch"]
         end = cell.run_args(out="", progress=False).full_options()["search"].eps_decay_epochs
-        train, evals = _by_epoch(rows, "train_success"), _by_epoch(rows, "eval_success")
+        train = stats.scores_from_rows(rows, "train_success").mean(axis=0)
+        evals = stats.scores_from_rows(rows).mean(axis=0)
         window = slice(max(0, end - stats.WINDOW), end)
         hit = stats.first_reaching(evals, level)
         after = f"reached {level} at epoch {hit}" if hit else f"never reached {level}"
