@@ -5,9 +5,10 @@ table by `fetch_epoch_report.py`)."""
 
 from __future__ import annotations
 
-import json
 import runpy
 from pathlib import Path
+
+from mjx_skills.core.files import read_jsonl
 
 RESULTS = Path(__file__).resolve().parent / "results"
 PHYSICS_BEGIN = (
@@ -20,8 +21,8 @@ fetch_train_epoch = runpy.run_path(str(Path(__file__).with_name("fetch_epoch_rep
 
 
 def rows(name: str) -> list[dict]:
-    path = RESULTS / f"{name}.jsonl"
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    """benchmarks/results/NAME.jsonl's rows."""
+    return read_jsonl(RESULTS / f"{name}.jsonl")
 
 
 def latest_by_batch(name: str, task: str) -> dict[int, dict]:

@@ -19,6 +19,7 @@ import runpy
 import sys
 from pathlib import Path
 
+from mjx_skills.core.files import read_jsonl
 from mjx_skills.methods import METHODS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -38,8 +39,8 @@ THESIS_EXPERIMENTS = ("fig6_3", "fig6_4", "fig6_5")
 
 
 def rows(name: str) -> list[dict]:
-    path = RESULTS / f"{name}.jsonl"
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    """benchmarks/results/NAME.jsonl's rows."""
+    return read_jsonl(RESULTS / f"{name}.jsonl")
 
 
 def epoch_cost() -> list[str]:
