@@ -52,7 +52,7 @@ def test_bad_registrations_are_named(push):
     with pytest.raises(
         ValueError,
         match="unknown skill 'pull'; valid: transit, grasp, transfer, fetch_transit, "
-        "fetch_grasp, fetch_transfer, push",
+        "fetch_grasp, fetch_transfer, fetch_approach, fetch_push_block, push",
     ):
         registry.register_library("SL_pull", ("transit", "pull"))
     with pytest.raises(ValueError, match="each skill once"):
@@ -80,7 +80,8 @@ def test_bad_registrations_are_named(push):
     assert "shove" not in registry.SKILLS and "shove" not in envs.ENVS  # nothing half-registered
     assert registry.library_skills("SL_push") == FOUR
     assert registry.skills_of("baxter") == FOUR
-    assert registry.skills_of("fetch") == (*registry.LIBRARIES["SL1_fetch"], "fetch_shove")
+    fetch = (*registry.LIBRARIES["SL1_fetch"], *registry.LIBRARIES["SL_fetch_push"])
+    assert registry.skills_of("fetch") == (*fetch, "fetch_shove")
 
 
 def test_build_library_names_the_skills_it_can_build(push, monkeypatch):
@@ -88,8 +89,9 @@ def test_build_library_names_the_skills_it_can_build(push, monkeypatch):
     assert build_library.SkillsArgs(skills=("push", "grasp")).names() == ("push", "grasp")
     with pytest.raises(ValueError, match="from the baxter skills transit, grasp, transfer, push"):
         build_library.SkillsArgs(skills=("push", "fly")).names()
-    fetch = build_library.SkillsArgs(robot="fetch")
-    assert fetch.names() == ("fetch_transit", "fetch_grasp", "fetch_transfer")
+    fetch = build_library.SkillsArgs(robot="fetch")  # every Fetch skill: two scenes
+    with pytest.raises(ValueError, match=r"several scenes \(pick_and_place, push\); .* --library"):
+        fetch.names()
     assert fetch.directory() == Path("experiments/skill_library_fetch")
     assert build_library.SkillsArgs().directory() == Path("experiments/skill_library")
     monkeypatch.setitem(envs.ROBOTS, "ur5", object)
