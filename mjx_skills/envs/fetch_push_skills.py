@@ -27,9 +27,11 @@ REACH = 0.15
 """How far (m) in x and in y one push may carry the block (its goal parameters' scale)."""
 PUSH_RANGE = (0.05, 0.15)
 """How far (m) a push's training goal lies from the block, along the push."""
-BEHIND = BLOCK_HALF + 0.03
-"""How far (m, in x and y) behind the block's centre the grip starts, opposite the push: 3 cm
-from its near face, as the scripted push lines up."""
+BEHIND = BLOCK_HALF + 0.045
+"""How far (m, in x and y) behind the block's centre the grip starts, opposite the push: 4.5 cm
+from its near face. The closed fingers reach 3 cm to either side of the grip, so at 3 cm (where
+the scripted push lines up) a push across them starts in contact and moves the block while
+the start is placed (measured: up to 3.5 cm)."""
 PUSH_HEIGHT = (0.0, 0.02)
 """How far (m) above the block's centre the grip starts, uniform: from the centre's height
 (where the scripted push pushes) to the lowest goal of approach (transit's box floor,
