@@ -54,7 +54,18 @@ class _PushScene:
 class FetchApproach(_PushScene, FetchTransit):
     """Move the gripper to a 3-D target in the box within 3 cm (20 steps): transit in
     FetchPush's scene, trained as its own skill so that its goals are proposed behind the
-    block."""
+    block. Its box reaches BEHIND further than the block's range in x and y, so that a
+    push's start behind a block at the range's edge is one of its goals; the block is drawn
+    in the block's range (`table_low`, `table_high`)."""
+
+    def __init__(self, config=None):
+        super().__init__(config)
+        margin = jnp.array([BEHIND, BEHIND, 0.0])
+        self.table_low, self.table_high = self.box_low, self.box_high
+        self.box_low, self.box_high = self.box_low - margin, self.box_high + margin
+
+    def sample_on_table(self, key: jax.Array) -> jax.Array:
+        return super().sample_on_table(key, self.table_low, self.table_high)
 
 
 class FetchPushBlock(_PushScene, FetchSkill):

@@ -83,9 +83,11 @@ class FetchSkill(FetchPickAndPlace):
         high = self.box_high if high is None else high
         return jax.random.uniform(key, (3,), minval=low, maxval=high)
 
-    def sample_on_table(self, key: jax.Array) -> jax.Array:
-        """(3,) the block resting on the table, xy uniform in the box."""
-        xy = jax.random.uniform(key, (2,), minval=self.box_low[:2], maxval=self.box_high[:2])
+    def sample_on_table(self, key: jax.Array, low=None, high=None) -> jax.Array:
+        """(3,) the block resting on the table, xy uniform in the box (or [low, high])."""
+        low = self.box_low if low is None else low
+        high = self.box_high if high is None else high
+        xy = jax.random.uniform(key, (2,), minval=low[:2], maxval=high[:2])
         return jnp.concatenate([xy, jnp.array([self.height_offset])])
 
     def free_grip(self, key: jax.Array) -> jax.Array:

@@ -55,14 +55,26 @@ def test_push_goal_parameters_are_an_offset_on_the_table_from_the_block():
 
 def test_approach_draws_transits_starts_in_the_push_scene():
     """Both skills of the push library share FetchPush's scene (the library's data
-    collection starts each skill from the other's starts)."""
+    collection starts each skill from the other's starts); approach draws as transit does,
+    in a box about FetchPush's initial grip that reaches behind the block's range."""
     approach, transit = make("fetch_approach"), make("fetch_transit")
     assert isinstance(approach, FetchTransit) and approach.scene == "push"
     assert approach.block_gripper and not transit.block_gripper
     keys = jax.random.split(jax.random.PRNGKey(3), N)
     drawn = jax.vmap(approach.sample_start)(keys)
-    for mine, theirs in zip(drawn, jax.vmap(transit.sample_start)(keys), strict=True):
-        np.testing.assert_array_equal(np.asarray(mine), np.asarray(theirs))
+    # Transit's draws in a box about FetchPush's initial grip, reaching BEHIND beyond the
+    # block's range in x and y (a push's start behind a block at its edge is a goal).
+    shift = np.asarray(approach.table_low - transit.box_low)
+    grown = np.array([BEHIND, BEHIND, 0.0])
+    np.testing.assert_allclose(approach.box_low, approach.table_low - grown, atol=1e-6)
+    np.testing.assert_allclose(approach.box_high, approach.table_high + grown, atol=1e-6)
+    blocks = jax.vmap(transit.sample_start)(keys)[1]
+    np.testing.assert_allclose(np.asarray(drawn[1]), np.asarray(blocks) + shift, atol=1e-5)
+    for point in (drawn[0], drawn[2]):
+        inside = (np.asarray(point) >= approach.box_low) & (np.asarray(point) <= approach.box_high)
+        assert inside.all()
+    outside = np.asarray(drawn[2])[:, :2] > np.asarray(approach.table_high)[:2]
+    assert outside.any()  # goals beyond the block's range are drawn
     obs = np.asarray(jax.jit(jax.vmap(approach.reset))(keys).obs)
     assert np.abs(obs[:, 9:11]).max() < 0.005  # the fingers closed
     grip, block = np.asarray(drawn[0]), np.asarray(drawn[1])
