@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import inspect
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Literal, NamedTuple
@@ -349,9 +350,29 @@ def fingerprint(library: str) -> dict[str, dict[str, str]] | None:
 
 
 def _source_digest(obj) -> str:
-    """sha256 of `obj`'s source (its qualified name where the source cannot be read)."""
+    """sha256 of `obj`'s source and, for a class, of its base classes of the user's own code
+    (not this package's, whose code no stored result records, nor an installed package's or
+    the standard library's), so that an edited base of a user's skill env is a different
+    definition; a source that cannot be read counts as its qualified name."""
+    bases = [c for c in getattr(obj, "__mro__", (obj,))[1:] if _users_code(c)]
+    return hashlib.sha256("\n".join(map(_source, (obj, *bases))).encode()).hexdigest()[:16]
+
+
+def _source(obj) -> str:
     try:
-        text = inspect.getsource(obj)
+        return inspect.getsource(obj)
     except (OSError, TypeError):
-        text = getattr(obj, "__qualname__", repr(obj))
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+        return getattr(obj, "__qualname__", repr(obj))
+
+
+def _users_code(cls: type) -> bool:
+    """Whether class `cls` is defined in the user's code: not in this package, nor in a file
+    under the interpreter's prefixes (the standard library, installed packages)."""
+    if cls.__module__.split(".")[0] in ("mjx_skills", "builtins"):
+        return False
+    try:
+        where = Path(inspect.getfile(cls)).resolve()
+    except (OSError, TypeError):
+        return False
+    prefixes = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)}
+    return not any(where.is_relative_to(p) for p in prefixes)
