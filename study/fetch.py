@@ -198,7 +198,7 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
         for f in published()
     ]
     lines = [
-        *library_tables(),
+        *library_tables([used for name, *_ in ours if (used := library_used(name))]),
         "",
         "Our runs on gymnasium-robotics' Fetch tasks (the JAX envs, equal to the originals step "
         "for step): env steps until the 5-epoch rolling mean of the seeds' mean eval success "

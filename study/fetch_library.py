@@ -24,13 +24,17 @@ def manifests() -> dict[str, Path]:
     }
 
 
-def library_tables() -> list[str]:
-    """`library_table` for each library of Fetch that is built (the first's always, saying
-    so when it is not), with a blank line between."""
-    out = []
-    for i, (name, path) in enumerate(manifests().items()):
-        if i == 0 or path.exists():
-            out += [*([""] if out else []), *library_table(path, name)]
+def library_tables(used: list[tuple[str, Path]] = ()) -> list[str]:
+    """`library_table` for the first library of Fetch (saying so when it is not built) and
+    for each other that is built, at its default directory or among `used` ((library,
+    manifest path) that stored cells searched with), each once, with a blank line between."""
+    first, *others = manifests().items()
+    out = library_table(first[1], first[0])
+    shown = {first[1].resolve()}
+    for name, path in [*others, *used]:
+        if path.exists() and path.resolve() not in shown:
+            shown.add(path.resolve())
+            out += ["", *library_table(path, name)]
     return out
 
 

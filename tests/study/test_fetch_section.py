@@ -175,3 +175,10 @@ def test_a_cell_is_charged_the_build_of_the_library_it_searches_with(tmp_path, m
     lines = fetch_library.library_tables()
     assert lines[0].startswith("No skill library SL1_fetch of Fetch")
     assert any(line.startswith("The skill library SL_fetch_push of Fetch") for line in lines)
+    # a library at another directory that a stored cell used, each one once
+    smaller = tmp_path / "small" / "manifest.json"
+    smaller.parent.mkdir()
+    smaller.write_text(json.dumps(manifest))
+    twice = fetch_library.library_tables([("SL1_fetch", smaller), ("SL1_fetch", smaller)])
+    titles = [line for line in twice if line.startswith("The skill library")]
+    assert len(titles) == 2 and "small" in titles[1]
