@@ -6,11 +6,14 @@ STAMP   := $(VENV)/.stamp-setup
 TASK    ?= pick_move
 METHOD  ?=
 EPOCHS  ?= 100
-# A Fetch task trains with the skills built on Fetch (`--preset fetch`, their library).
+# A Fetch task trains with the skills built on Fetch (`--preset fetch`, their library);
+# FetchPush, whose fingers are blocked, with the push library (`--preset fetch_push`).
 FETCH   := $(filter fetch_%,$(TASK))
-LIBRARY := experiments/skill_library$(if $(FETCH),_fetch)
+PUSH    := $(filter fetch_push,$(TASK))
 ROBOT   ?= $(if $(FETCH),fetch,baxter)
-PRESET  ?= $(if $(FETCH),fetch)
+SKILL_LIBRARY ?= $(if $(PUSH),SL_fetch_push,$(if $(filter fetch,$(ROBOT)),SL1_fetch))
+LIBRARY := experiments/skill_library$(if $(PUSH),_SL_fetch_push,$(if $(FETCH),_fetch))
+PRESET  ?= $(if $(PUSH),fetch_push,$(if $(FETCH),fetch))
 SEEDS   ?= 1
 OUT     ?= runs
 ARGS    ?=
@@ -28,13 +31,14 @@ $(STAMP): pyproject.toml
 # The CLI's default method (DDPG+HER+SL) unless METHOD=...; a library method builds the skill
 # library first if there is none (on Fetch for a Fetch task: make train TASK=fetch_pick_and_place).
 train: setup
-	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills ROBOT=$(ROBOT); fi
+	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills ROBOT=$(ROBOT) SKILL_LIBRARY=$(SKILL_LIBRARY); fi
 	$(BIN)/python -m mjx_skills.train $(METHOD) $(if $(PRESET),--preset $(PRESET)) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
 
 # Train transit / grasp / transfer, collect their data, fit their models.
-# ROBOT=fetch builds the same skills on Fetch into experiments/skill_library_fetch.
+# ROBOT=fetch builds the same skills on Fetch into experiments/skill_library_fetch;
+# ROBOT=fetch SKILL_LIBRARY=SL_fetch_push the push library into experiments/skill_library_SL_fetch_push.
 skills: setup
-	$(BIN)/python -m mjx_skills.build_library --robot $(ROBOT) $(ARGS)
+	$(BIN)/python -m mjx_skills.build_library --robot $(ROBOT) $(if $(SKILL_LIBRARY),--library $(SKILL_LIBRARY)) $(ARGS)
 
 # The thesis's experiments: make sweep ARGS="--experiment fig6_3" (see --list).
 sweep: setup

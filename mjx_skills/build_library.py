@@ -1,7 +1,7 @@
 """Build the skill library: train each skill, collect its data, fit its models, save.
 
     python -m mjx_skills.build_library                      # or `make skills`
-    python -m mjx_skills.build_library --robot fetch        # make skills ROBOT=fetch
+    python -m mjx_skills.build_library --robot fetch --library SL1_fetch  # make skills ROBOT=fetch
     python -m mjx_skills.build_library --out DIR --samples 100000
     python -m mjx_skills.build_library --table              # Table 5.1 of the library at --out
     python -m mjx_skills.build_library --import my_skills.py --out DIR  # with your skills
@@ -62,10 +62,14 @@ class SkillsArgs:
     skills: tuple[str, ...] = ()
     """The skills to build, in order (default: every registered skill of --robot, yours
     included when --import registers one)."""
+    library: str | None = None
+    """Build the skills of this registered library of --robot's (e.g. SL1_fetch, or
+    SL_fetch_push for FetchPush), instead of --skills."""
 
     def directory(self) -> Path:
-        """--out, or the robot's default library directory (`library.default_dir`)."""
-        return Path(self.out) if self.out else library.default_dir(self.robot)
+        """--out, or the default library directory (`registry.default_dir`): the robot's, or
+        for a --library other than the robot's first, experiments/skill_library_LIBRARY."""
+        return Path(self.out) if self.out else registry.default_dir(self.robot, self.library)
 
     def names(self) -> tuple[str, ...]:
         """The skills this build trains; ValueError naming the valid ones."""
@@ -75,12 +79,28 @@ class SkillsArgs:
                 f"--robot {self.robot}: no skill is registered for it; robots with skills: "
                 f"{', '.join(registry.robots_with_skills())}"
             )
-        names = self.skills or own
+        if self.library is not None:
+            if self.skills:
+                raise ValueError("--library and --skills both choose the skills: give one")
+            mine = registry.libraries_of(self.robot)
+            if self.library not in mine:
+                raise ValueError(
+                    f"--library {self.library}: not a library of the {self.robot} skills; "
+                    f"valid: {', '.join(mine)}"
+                )
+        names = self.skills or (registry.library_skills(self.library) if self.library else own)
         wrong = [n for n in names if n not in own]
         if wrong or len(set(names)) != len(names):
             raise ValueError(
                 f"--skills {' '.join(names)}: each once, from the {self.robot} skills "
                 f"{', '.join(own)} (a skill of your own: --import the module that registers it)"
+            )
+        scenes = {registry.get(n).env.scene for n in names}
+        if len(scenes) > 1:  # collection starts each skill from the others' starts
+            raise ValueError(
+                f"the skills {', '.join(names)} are of several scenes ({', '.join(sorted(scenes))})"
+                "; a library's skills share one: build one library at a time, --library "
+                f"{' or --library '.join(registry.libraries_of(self.robot))}"
             )
         return names
 

@@ -9,9 +9,9 @@ examples:
   python -m mjx_skills.train --resume RUN_DIR --epochs 60 # ... and train on to 60 epochs
 
 Read before the method's options: --resume RUN_DIR [--epochs N] (nothing else with it),
---preset NAME (a method's option preset: default, thesis, fetch), --method NAME (an earlier
-form of the subcommand) and --import MODULE (your module registering tasks or robots:
-a dotted name or a .py path; repeatable).
+--preset NAME (a method's option preset: default, thesis, fetch, fetch_push), --method NAME
+(an earlier form of the subcommand) and --import MODULE (your module registering tasks or
+robots: a dotted name or a .py path; repeatable).
 """
 
 from __future__ import annotations

@@ -15,12 +15,13 @@ import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import read_jsonl
+from mjx_skills.core.paths import in_checkout
 from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.cell import Cell
 from mjx_skills.sweeps.experiment_file import names, raw
 from mjx_skills.sweeps.experiments import load_experiment
 from study import fetch_budget, fetch_explorer, fetch_ranking
-from study.fetch_library import LIBRARY, build_env_steps, library_table
+from study.fetch_library import build_env_steps, library_tables
 from study.sections import table
 
 PUBLISHED = Path(__file__).parent / "published" / "fetch_her.toml"
@@ -197,7 +198,7 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
         for f in published()
     ]
     lines = [
-        *library_table(),
+        *library_tables([used for name, *_ in ours if (used := library_used(name))]),
         "",
         "Our runs on gymnasium-robotics' Fetch tasks (the JAX envs, equal to the originals step "
         "for step): env steps until the 5-epoch rolling mean of the seeds' mean eval success "
@@ -320,8 +321,8 @@ def _caveats(name: str) -> str:
     cost = library_cost(name)
     if cost:
         out += (
-            f" It uses the skill library of Fetch, whose build took {cost:,} env "
-            "steps once, not counted in its curve."
+            f" It uses the skill library {library_used(name)[0]} of Fetch, whose build "
+            f"took {cost:,} env steps once, not counted in its curve."
         )
     return out
 
@@ -329,14 +330,26 @@ def _caveats(name: str) -> str:
 def library_cost(name: str) -> int:
     """Env steps the build of the skill library took that the cell labelled `name` used (0:
     it uses none, or none is built)."""
+    used = library_used(name)
+    if used is None or not used[1].exists():
+        return 0
+    return build_env_steps(json.loads(used[1].read_text()))
+
+
+def library_used(name: str) -> tuple[str, Path] | None:
+    """(library, its manifest's path) that the cells of the experiment of the cell labelled
+    `name` search with (None: no library method, or not an experiment)."""
     from mjx_skills.methods import get
 
     name = name.split(":")[0]
-    if name not in names() or not LIBRARY.exists():
-        return 0
-    if not any(get(m).library_group for m in load_experiment(name).methods):
-        return 0
-    return build_env_steps(json.loads(LIBRARY.read_text()))
+    if name not in names():
+        return None
+    for cell in load_experiment(name).cells():
+        group = get(cell.method).library_group
+        if group is not None:
+            options = cells.run_config(cell.run_args(out="", progress=False))["options"][group]
+            return options["library"], in_checkout(options["library_dir"]) / "manifest.json"
+    return None
 
 
 def figure(ours, out: Path, draw: bool = True) -> Path | None:

@@ -8,11 +8,34 @@ import json
 from pathlib import Path
 
 from mjx_skills.core.paths import CHECKOUT
-from mjx_skills.skills.registry import default_dir
+from mjx_skills.skills.registry import default_dir, libraries_of
 from study.sections import table
 
 LIBRARY = CHECKOUT / default_dir("fetch") / "manifest.json"
 """The skill library built on Fetch (`make skills ROBOT=fetch`)."""
+
+
+def manifests() -> dict[str, Path]:
+    """Each registered library of Fetch's skills -> its manifest at its default directory
+    (SL1_fetch: LIBRARY; the push library: `make skills ROBOT=fetch SKILL_LIBRARY=...`)."""
+    return {
+        name: CHECKOUT / default_dir("fetch", name) / "manifest.json"
+        for name in libraries_of("fetch")
+    }
+
+
+def library_tables(used: list[tuple[str, Path]] = ()) -> list[str]:
+    """`library_table` for the first library of Fetch (saying so when it is not built) and
+    for each other that is built, at its default directory or among `used` ((library,
+    manifest path) that stored cells searched with), each once, with a blank line between."""
+    first, *others = manifests().items()
+    out = library_table(first[1], first[0])
+    shown = {first[1].resolve()}
+    for name, path in [*others, *used]:
+        if path.exists() and path.resolve() not in shown:
+            shown.add(path.resolve())
+            out += ["", *library_table(path, name)]
+    return out
 
 
 def build_env_steps(manifest: dict) -> int:
@@ -22,12 +45,12 @@ def build_env_steps(manifest: dict) -> int:
     return sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
 
 
-def library_table(path: Path = LIBRARY) -> list[str]:
-    """Table 5.1's columns for the Fetch library (no thesis figures: the thesis has no
-    Fetch) with the trivial goal predictor beside them, each skill's success, and the env
-    steps its build took: skill training and data collection."""
+def library_table(path: Path = LIBRARY, library: str = "SL1_fetch") -> list[str]:
+    """Table 5.1's columns for library `library` of Fetch at `path` (its manifest; no thesis
+    figures: the thesis has no Fetch) with the trivial goal predictor beside them, each
+    skill's success, and the env steps its build took: skill training and data collection."""
     if not path.exists():
-        return ["No skill library of Fetch is built yet (`make skills ROBOT=fetch`)."]
+        return [f"No skill library {library} of Fetch is built yet (`make skills ROBOT=fetch`)."]
     m = json.loads(path.read_text())
     steps = m.get("env_steps", {})
     rows = []
@@ -48,7 +71,7 @@ def library_table(path: Path = LIBRARY) -> list[str]:
     total = build_env_steps(m)
     header = ["skill", "success", "memory cm", "model cm", "goal cm", "classifier AUC"]
     return [
-        f"The skill library of Fetch (`{_shown(path.parent)}`, built at `{m['commit'][:7]}`): the "
+        f"The skill library {library} of Fetch (`{_shown(path.parent)}`, built at `{m['commit'][:7]}`): the "
         "skills' success on 200 fresh episodes of their own starts, and Table 5.1's held-out "
         'terminal errors with the trivial predictor ("the run ends at its goal", goal cm) '
         f"beside them; its build took {total:,} env steps (skill training and data "

@@ -318,9 +318,20 @@ class FetchRobot:
         return jnp.where(self.relative_ctrl, joints, 0.0) + gripper
 
     def _hold(self, physics, mocap: jax.Array, gripper: jax.Array, steps: int) -> PhysicsState:
-        """`steps` env steps with the mocap held at `mocap` (position, quaternion)."""
-        path = jnp.broadcast_to(mocap, (steps * N_SUBSTEPS, mocap.shape[0]))
-        return self.backend.step(physics, self._finger_ctrl(physics, gripper), path)
+        """`steps` env steps with the mocap held at `mocap` (position, quaternion); with the
+        gripper blocked, the fingers are put back to 0 after each, as `step` does (without
+        actuators, they would swing open and knock a block nearby)."""
+        if not self.block_gripper:
+            path = jnp.broadcast_to(mocap, (steps * N_SUBSTEPS, mocap.shape[0]))
+            return self.backend.step(physics, self._finger_ctrl(physics, gripper), path)
+        path = jnp.broadcast_to(mocap, (N_SUBSTEPS, mocap.shape[0]))
+
+        def one(state: PhysicsState, _) -> tuple[PhysicsState, None]:
+            state = self.backend.step(state, self._finger_ctrl(state, gripper), path)
+            qpos = self.backend.qpos(state).at[self.finger_qpos].set(0.0)
+            return self.backend.set_qpos_qvel(state, qpos, self.backend.qvel(state)), None
+
+        return jax.lax.scan(one, physics, None, length=steps)[0]
 
     def _sensed(self, physics: PhysicsState, mocap: jax.Array) -> jax.Array:
         """The sensors of the state vector itself (not the last substep's start)."""

@@ -102,7 +102,10 @@ SCRIPTED = {
     "fetch_transit": transit,
     "fetch_grasp": pick_and_place,  # its goal: the block lifted where it lies
     "fetch_transfer": transfer,
+    "fetch_approach": transit,
+    "fetch_push_block": push,
 }
 """Registry name -> scripted controller (FetchSlide has none: a shot that stops a puck
 on a low-friction table within 5 cm is no simple state machine). The Fetch skills
-(`envs/fetch_skills.py`) are pick and place's parts."""
+(`envs/fetch_skills.py`) are pick and place's parts; the push library's
+(`envs/fetch_push_skills.py`) are transit and FetchPush's push."""

@@ -53,6 +53,9 @@ class FetchSkill(FetchPickAndPlace):
     closed fingers)."""
     held_below = (0.0, 0.0)
     """How far (m) below the grip a block held at the start sits, uniform in this range."""
+    near_clearance = FINGERTIPS
+    """A free grip within NEAR_BLOCK of the block (x and y) starts at least this far (m) above
+    the block's centre (0 for a skill whose start is at the block's side)."""
     param_dim: int
     state_dims: tuple[int, ...]
     memory_dims: tuple[int, ...]
@@ -80,9 +83,11 @@ class FetchSkill(FetchPickAndPlace):
         high = self.box_high if high is None else high
         return jax.random.uniform(key, (3,), minval=low, maxval=high)
 
-    def sample_on_table(self, key: jax.Array) -> jax.Array:
-        """(3,) the block resting on the table, xy uniform in the box."""
-        xy = jax.random.uniform(key, (2,), minval=self.box_low[:2], maxval=self.box_high[:2])
+    def sample_on_table(self, key: jax.Array, low=None, high=None) -> jax.Array:
+        """(3,) the block resting on the table, xy uniform in the box (or [low, high])."""
+        low = self.box_low if low is None else low
+        high = self.box_high if high is None else high
+        xy = jax.random.uniform(key, (2,), minval=low[:2], maxval=high[:2])
         return jnp.concatenate([xy, jnp.array([self.height_offset])])
 
     def free_grip(self, key: jax.Array) -> jax.Array:
@@ -106,7 +111,7 @@ class FetchSkill(FetchPickAndPlace):
         grip, block, goal = self.sample_start(key)
         grip, held = self.training_start(key, grip, block)
         near = jnp.linalg.norm(grip[:2] - block[:2]) < NEAR_BLOCK
-        clear = jnp.maximum(grip[2], block[2] + FINGERTIPS)
+        clear = jnp.maximum(grip[2], block[2] + self.near_clearance)
         grip = grip.at[2].set(jnp.where(near & ~held, clear, grip[2]))
         fingers_open = jax.random.uniform(jax.random.fold_in(key, 11)) < self.open_fingers_prob
         below = jax.random.uniform(jax.random.fold_in(key, 13), (), minval=0.0, maxval=1.0)

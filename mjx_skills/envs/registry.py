@@ -9,6 +9,7 @@ from mjx_skills.config import EnvConfig
 from mjx_skills.core.types import GoalEnv
 from mjx_skills.envs.baxter import BaxterEnv, BaxterRobot
 from mjx_skills.envs.fetch import FetchRobot
+from mjx_skills.envs.fetch_push_skills import FETCH_PUSH_SKILLS
 from mjx_skills.envs.fetch_skills import FETCH_SKILLS
 from mjx_skills.envs.fetch_tasks import FETCH_TASKS, FetchTask
 from mjx_skills.envs.skills import Grasp, Transfer, Transit
@@ -31,9 +32,10 @@ BAXTER: dict[str, type[BaxterEnv]] = {
 FETCH: dict[str, type[FetchTask]] = dict(FETCH_TASKS)
 """gymnasium-robotics' Fetch tasks (envs/fetch_tasks.py); the library methods run them with
 a library of the Fetch skills (`FETCH_SKILLS`)."""
-ENVS: dict[str, type] = {**BAXTER, **FETCH, **FETCH_SKILLS}
+ENVS: dict[str, type] = {**BAXTER, **FETCH, **FETCH_SKILLS, **FETCH_PUSH_SKILLS}
 """Every env by name: Baxter's skills and tasks, Fetch's tasks and Fetch's skills
-(`envs/fetch_skills.py`, the skill library of Fetch)."""
+(`envs/fetch_skills.py`, the skill library of Fetch; `envs/fetch_push_skills.py`, its push
+library's)."""
 ROBOTS: dict[str, type] = {BaxterRobot.name: BaxterRobot, FetchRobot.name: FetchRobot}
 """Robot name -> its class, an `envs.robot.Robot` (each task declares one: `robot_name`)."""
 TASKS = (

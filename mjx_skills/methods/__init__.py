@@ -209,7 +209,8 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
             f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run with "
             f"it: pass --{group}.library {' or '.join(libraries_of(robot))} (the "
             f"{robot.capitalize()} skills) and {flag} {default_dir(robot)}, which `python -m "
-            f"mjx_skills.build_library --robot {robot}` builds (`make skills ROBOT={robot}`)"
+            f"mjx_skills.build_library --robot {robot} --library {libraries_of(robot)[0]}` "
+            f"builds (`make skills ROBOT={robot}`)"
             + (f"; `--preset {robot}` sets both" if robot in PRESETS else "")
         )
     flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)
@@ -315,7 +316,11 @@ THESIS_LIBRARY = "experiments/skill_library_thesis"
 (`python -m mjx_skills.build_library --anchor start --out experiments/skill_library_thesis`)."""
 
 FETCH_LIBRARY = "experiments/skill_library_fetch"
-"""The skills built on Fetch (`python -m mjx_skills.build_library --robot fetch`)."""
+"""The skills built on Fetch (`python -m mjx_skills.build_library --robot fetch --library
+SL1_fetch`)."""
+FETCH_PUSH_LIBRARY = "experiments/skill_library_SL_fetch_push"
+"""The push library of Fetch, for FetchPush (`python -m mjx_skills.build_library --robot fetch
+--library SL_fetch_push`)."""
 FETCH_SEARCH = {"transit_height": (0.05, 0.07)}
 """The search's transit goals on Fetch: 5-7 cm above the block, since Fetch's closed fingertips
 reach 5 cm below the grip (Baxter's 3-4.5 cm press them into the block; docs/simulation.md)."""
@@ -345,8 +350,14 @@ PRESETS["fetch"] = {
     for name, spec in METHODS.items()
     if spec.library_group is not None
 }
+PRESETS["fetch_push"] = {
+    name: {spec.library_group: {"library": "SL_fetch_push", "library_dir": FETCH_PUSH_LIBRARY}}
+    for name, spec in METHODS.items()
+    if spec.library_group is not None
+}
 """Named option sets by method and group, applied over the defaults (explicit flags win).
-'fetch': the library methods with the skills built on Fetch, for the Fetch tasks.
+'fetch': the library methods with the skills built on Fetch, for the Fetch tasks;
+'fetch_push': with the push library of Fetch (approach and push), for FetchPush.
 'thesis': each method as the thesis formulates it, where our defaults depart from it by
 measurement (field by field, with what they change: docs/results.md, "Our defaults against the thesis's formulation"). DDPG+HER
 has no departure of formulation (its hyperparameters: `DDPGConfig`)."""

@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import inspect
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Literal, NamedTuple
@@ -29,6 +30,7 @@ import jax.numpy as jnp
 
 from mjx_skills.config import LIBRARIES as THESIS_LIBRARIES
 from mjx_skills.config import LibraryConfig, SearchConfig
+from mjx_skills.envs import fetch_push_skills as push
 from mjx_skills.envs import registry as envs
 
 Start = Literal["empty", "held", "any"]
@@ -150,7 +152,42 @@ _FETCH = tuple(
 )
 """The same three skills on Fetch (`envs/fetch_skills.py`): the same proposers, starts and
 budgets; the thesis has no Table 5.1 figures for them."""
-SKILLS: dict[str, Skill] = {skill.name: skill for skill in (*_BUILT_IN, *_FETCH)}
+
+
+def _behind_object(env, cfg: SearchConfig, e: Edges) -> jax.Array:
+    """Approach: where a push towards the task's goal starts (`envs.fetch_push_skills`),
+    BEHIND behind the object opposite the goal, PUSH_HEIGHT's top above its centre (the
+    floor of approach's box), xy within `object_goal_noise`; clipped into the box."""
+    obj = e.obs[:, None, env.layout["object"]]  # (N, 1, 3)
+    way = (e.task_goal[:, None] - obj) * jnp.array([1.0, 1.0, 0.0])
+    way = way / jnp.maximum(jnp.linalg.norm(way, axis=-1, keepdims=True), 1e-6)
+    goal = obj - push.BEHIND * way + jnp.array([0.0, 0.0, push.PUSH_HEIGHT[1]])
+    goal = goal + cfg.object_goal_noise * e.noise * jnp.array([1.0, 1.0, 0.0])
+    return jnp.clip(goal, env.box_low, env.box_high)
+
+
+def _toward_task_goal(env, cfg: SearchConfig, e: Edges) -> jax.Array:
+    """Push: from the object towards the task's goal along the table, at most REACH in x and
+    in y (its goal parameters' range), with `transfer_goal_noise` in x and y."""
+    obj = e.obs[:, None, env.layout["object"]]
+    flat = jnp.array([1.0, 1.0, 0.0])
+    step = jnp.clip((e.task_goal[:, None] - obj) * flat, -push.REACH, push.REACH)
+    return obj + step + cfg.transfer_goal_noise * e.noise * flat
+
+
+_FETCH_PUSH = (
+    Skill(
+        "fetch_approach",
+        envs.ENVS["fetch_approach"],
+        _behind_object,
+        moves=True,
+        epochs="transit_epochs",
+    ),
+    Skill("fetch_push_block", envs.ENVS["fetch_push_block"], _toward_task_goal, moves=True),
+)
+"""The push library's skills on Fetch (`envs/fetch_push_skills.py`): approach (transit's
+env, its goals behind the block) and push, for FetchPush, whose fingers are blocked."""
+SKILLS: dict[str, Skill] = {skill.name: skill for skill in (*_BUILT_IN, *_FETCH, *_FETCH_PUSH)}
 """Skill name -> its definition, in the order `build_library` builds them."""
 LIBRARIES: dict[str, tuple[str, ...]] = dict(
     zip(
@@ -160,8 +197,10 @@ LIBRARIES: dict[str, tuple[str, ...]] = dict(
     )
 )
 LIBRARIES["SL1_fetch"] = tuple(skill.name for skill in _FETCH)
+LIBRARIES["SL_fetch_push"] = tuple(skill.name for skill in _FETCH_PUSH)
 """Library name -> its skills: the thesis's (Fig. 6.4; SL1 the full one), SL1's skills on
-Fetch (SL1_fetch) and yours (`register_library`)."""
+Fetch (SL1_fetch), the push library of Fetch (SL_fetch_push, for FetchPush) and yours
+(`register_library`)."""
 
 
 UNRECORDED_ROBOT = "baxter"
@@ -171,9 +210,13 @@ DEFAULT_DIR = Path("experiments") / "skill_library"
 """The default library: Baxter's (the thesis's robot)."""
 
 
-def default_dir(robot: str) -> Path:
-    """Where `build_library --robot ROBOT` writes by default: DEFAULT_DIR for Baxter,
-    experiments/skill_library_ROBOT for any other robot."""
+def default_dir(robot: str, library: str | None = None) -> Path:
+    """Where `build_library --robot ROBOT [--library LIBRARY]` writes by default: DEFAULT_DIR
+    for Baxter, experiments/skill_library_ROBOT for any other robot, and
+    experiments/skill_library_LIBRARY for a library other than the robot's first (SL1,
+    SL1_fetch), e.g. experiments/skill_library_SL_fetch_push."""
+    if library is not None and library != libraries_of(robot)[0]:
+        return DEFAULT_DIR.with_name(f"{DEFAULT_DIR.name}_{library}")
     return (
         DEFAULT_DIR
         if robot == UNRECORDED_ROBOT
@@ -307,9 +350,29 @@ def fingerprint(library: str) -> dict[str, dict[str, str]] | None:
 
 
 def _source_digest(obj) -> str:
-    """sha256 of `obj`'s source (its qualified name where the source cannot be read)."""
+    """sha256 of `obj`'s source and, for a class, of its base classes of the user's own code
+    (not this package's, whose code no stored result records, nor an installed package's or
+    the standard library's), so that an edited base of a user's skill env is a different
+    definition; a source that cannot be read counts as its qualified name."""
+    bases = [c for c in getattr(obj, "__mro__", (obj,))[1:] if _users_code(c)]
+    return hashlib.sha256("\n".join(map(_source, (obj, *bases))).encode()).hexdigest()[:16]
+
+
+def _source(obj) -> str:
     try:
-        text = inspect.getsource(obj)
+        return inspect.getsource(obj)
     except (OSError, TypeError):
-        text = getattr(obj, "__qualname__", repr(obj))
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+        return getattr(obj, "__qualname__", repr(obj))
+
+
+def _users_code(cls: type) -> bool:
+    """Whether class `cls` is defined in the user's code: not in this package, nor in a file
+    under the interpreter's prefixes (the standard library, installed packages)."""
+    if cls.__module__.split(".")[0] in ("mjx_skills", "builtins"):
+        return False
+    try:
+        where = Path(inspect.getfile(cls)).resolve()
+    except (OSError, TypeError):
+        return False
+    prefixes = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)}
+    return not any(where.is_relative_to(p) for p in prefixes)

@@ -3,7 +3,9 @@ examples/push_skill/): the library, the search, PAS's stop rule, the stall memor
 build_library read it from its definition; bad registrations are named."""
 
 import dataclasses
+import importlib.util
 import runpy
+import sys
 from pathlib import Path
 
 import jax
@@ -52,7 +54,7 @@ def test_bad_registrations_are_named(push):
     with pytest.raises(
         ValueError,
         match="unknown skill 'pull'; valid: transit, grasp, transfer, fetch_transit, "
-        "fetch_grasp, fetch_transfer, push",
+        "fetch_grasp, fetch_transfer, fetch_approach, fetch_push_block, push",
     ):
         registry.register_library("SL_pull", ("transit", "pull"))
     with pytest.raises(ValueError, match="each skill once"):
@@ -80,7 +82,8 @@ def test_bad_registrations_are_named(push):
     assert "shove" not in registry.SKILLS and "shove" not in envs.ENVS  # nothing half-registered
     assert registry.library_skills("SL_push") == FOUR
     assert registry.skills_of("baxter") == FOUR
-    assert registry.skills_of("fetch") == (*registry.LIBRARIES["SL1_fetch"], "fetch_shove")
+    fetch = (*registry.LIBRARIES["SL1_fetch"], *registry.LIBRARIES["SL_fetch_push"])
+    assert registry.skills_of("fetch") == (*fetch, "fetch_shove")
 
 
 def test_build_library_names_the_skills_it_can_build(push, monkeypatch):
@@ -88,8 +91,9 @@ def test_build_library_names_the_skills_it_can_build(push, monkeypatch):
     assert build_library.SkillsArgs(skills=("push", "grasp")).names() == ("push", "grasp")
     with pytest.raises(ValueError, match="from the baxter skills transit, grasp, transfer, push"):
         build_library.SkillsArgs(skills=("push", "fly")).names()
-    fetch = build_library.SkillsArgs(robot="fetch")
-    assert fetch.names() == ("fetch_transit", "fetch_grasp", "fetch_transfer")
+    fetch = build_library.SkillsArgs(robot="fetch")  # every Fetch skill: two scenes
+    with pytest.raises(ValueError, match=r"several scenes \(pick_and_place, push\); .* --library"):
+        fetch.names()
     assert fetch.directory() == Path("experiments/skill_library_fetch")
     assert build_library.SkillsArgs().directory() == Path("experiments/skill_library")
     monkeypatch.setitem(envs.ROBOTS, "ur5", object)
@@ -210,3 +214,31 @@ def test_a_result_with_the_users_skills_depends_on_their_definitions(push, monke
     assert run_provenance.library_provenance(config)["skills"] == registry.fingerprint("SL_push")
     config["options"]["search"]["library"] = "SL1"
     assert set(run_provenance.library_provenance(config)) == {"commit", "scenes"}
+
+
+def test_an_edited_base_class_of_a_users_skill_env_is_a_different_definition(
+    push, monkeypatch, tmp_path
+):
+    """The env's digest covers its base classes of the user's own code (not the package's,
+    which no stored result records): the same subclass over an edited base differs; the
+    same source loaded from another file does not."""
+
+    def env_with(reach: float) -> type:
+        name = f"users_skill_{len(list(tmp_path.iterdir()))}"
+        path = tmp_path / f"{name}.py"
+        path.write_text(f"class Base:\n    reach = {reach}\n\n\nclass Mine(Base):\n    pass\n")
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        monkeypatch.setitem(sys.modules, name, module)
+        spec.loader.exec_module(module)
+        return module.Mine
+
+    def digest(env: type) -> str:
+        monkeypatch.setitem(
+            registry.SKILLS, "push", dataclasses.replace(registry.SKILLS["push"], env=env)
+        )
+        return registry.fingerprint("SL_push")["push"]["env"]
+
+    first = digest(env_with(0.1))
+    assert digest(env_with(0.1)) == first
+    assert digest(env_with(0.2)) != first

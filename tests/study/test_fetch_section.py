@@ -67,14 +67,15 @@ def test_the_fetch_librarys_table_counts_the_env_steps_its_build_took(tmp_path):
     lines = fetch_library.library_table(path)
     assert "its build took 288,400 env steps" in lines[0] and "`abcdef0`" in lines[0]
     assert lines[5] == "| fetch_grasp | 0.900 | 1.00 | 0.50 | 2.00 | 0.990 | 32,000 | 150,000 |"
-    assert fetch_library.library_table(tmp_path / "none.json")[0].startswith(
-        "No skill library of Fetch"
+    assert fetch_library.library_table(tmp_path / "none.json", "SL_x")[0].startswith(
+        "No skill library SL_x of Fetch"
     )
 
 
 def test_a_cell_beside_a_published_figure_says_its_seeds_and_its_librarys_cost():
     sl = fetch._caveats("fetch_pick_and_place_sl")
-    assert "ran on the tuning seeds 0-2" in sl and "skill library of Fetch, whose build took" in sl
+    assert "ran on the tuning seeds 0-2" in sl
+    assert "skill library SL1_fetch of Fetch, whose build took" in sl
     flat = fetch._caveats("fetch_push_her")
     assert "tuning seeds 0-2" in flat and "library" not in flat
     assert fetch._caveats("not_an_experiment") == ""
@@ -143,3 +144,41 @@ def test_a_rank_holds_only_when_the_upper_interval_clears_the_lower():
         "PAS above DDPG+HER: holds; MPAS above DDPG+HER: not shown."
     )
     assert fetch_ranking.section({k: v for k, v in found.items() if k != "pas"}) == []
+
+
+def test_a_cell_is_charged_the_build_of_the_library_it_searches_with(tmp_path, monkeypatch):
+    """FetchPush's cells search with the push library, not SL1_fetch: its manifest is the one
+    read for their build cost, and its table joins the section once it is built."""
+    pnp, push = fetch.library_used("fetch_pick_and_place_sl"), fetch.library_used("fetch_push_sl")
+    for (name, path), library in ((pnp, "SL1_fetch"), (push, "SL_fetch_push")):
+        assert name == library and path.resolve() == fetch_library.manifests()[library]
+    assert fetch.library_used("fetch_push_her") is None
+    built = tmp_path / "manifest.json"
+    manifest = {
+        "commit": "0123456789",
+        "skill_success": {"fetch_push_block": 0.9},
+        "models": {
+            "fetch_push_block": {
+                "memory_error_cm": 1.0,
+                "model_error_cm": 1.0,
+                "goal_error_cm": 2.0,
+                "classifier_auc": 0.9,
+            }
+        },
+        "env_steps": {"train": {"fetch_push_block": 800}, "collect": {"fetch_push_block": 1000}},
+    }
+    built.write_text(json.dumps(manifest))
+    monkeypatch.setattr(fetch, "library_used", lambda name: ("SL_fetch_push", built))
+    assert fetch.library_cost("fetch_push_sl") == 1800
+    missing = {"SL1_fetch": tmp_path / "no.json", "SL_fetch_push": built}
+    monkeypatch.setattr(fetch_library, "manifests", lambda: missing)
+    lines = fetch_library.library_tables()
+    assert lines[0].startswith("No skill library SL1_fetch of Fetch")
+    assert any(line.startswith("The skill library SL_fetch_push of Fetch") for line in lines)
+    # a library at another directory that a stored cell used, each one once
+    smaller = tmp_path / "small" / "manifest.json"
+    smaller.parent.mkdir()
+    smaller.write_text(json.dumps(manifest))
+    twice = fetch_library.library_tables([("SL1_fetch", smaller), ("SL1_fetch", smaller)])
+    titles = [line for line in twice if line.startswith("The skill library")]
+    assert len(titles) == 2 and "small" in titles[1]

@@ -239,7 +239,8 @@ def test_cli_forms_parse_to_the_same_run():
 
 
 @pytest.mark.parametrize(
-    ("task", "library"), [("pick_move", "SL1"), ("fetch_pick_and_place", "SL1_fetch")]
+    ("task", "library"),
+    [("pick_move", "SL1"), ("fetch_pick_and_place", "SL1_fetch"), ("fetch_push", "SL_fetch_push")],
 )
 def test_make_train_gives_a_task_the_skills_of_its_robot(task, library):
     """`make train TASK=...` runs the CLI with the library of the task's robot (`--preset
