@@ -7,6 +7,7 @@ cause it has measured."""
 
 from __future__ import annotations
 
+from mjx_skills.analysis import stats
 from mjx_skills.envs.registry import ENVS
 from mjx_skills.sweeps.experiment_file import names
 from mjx_skills.sweeps.experiments import load_experiment
@@ -51,4 +52,19 @@ def sentence(name: str, figure: dict) -> str:
         f"(batch {figure['batch_size']}, an update every {figure['env_steps_per_update']} "
         f"env steps), {published / per:.0f} times as many: a difference not yet tested as "
         "the cause."
+    )
+
+
+def best_plain(mine: list, figure: dict) -> str:
+    """' Our best DDPG+HER cell there, ...': of cells `mine` ((label, env steps per epoch,
+    (seeds, epochs) success) on one task), the DDPG+HER one with the highest last-5 mean,
+    where it ends, and its budget beside the published learner's (`sentence`); '' if none."""
+    plain = [(name, per, s) for name, per, s in mine if ours(name) is not None]
+    if not plain:
+        return ""
+    name, per, s = max(plain, key=lambda m: stats.summarize(m[2]).last[0])
+    return (
+        f" Our best DDPG+HER cell there, {name}, ends at a last-5 mean of "
+        f"{stats.summarize(s).last[0]:.2f} after {s.shape[1] * per:,} env steps."
+        + sentence(name, figure)
     )
