@@ -105,9 +105,25 @@ class SkillsArgs:
         return names
 
 
+SKILL_RECORD = "skill_env.json"
+"""In a skill's training run: the digest of the skill env's source that trained it
+(`registry.env_digest`); a build resumes only a run of the skill's env as it is now."""
+
+
 def _latest_run(work: Path, name: str) -> Path | None:
+    """The newest training run of `name` in `work` made by the skill's env as it is now (an
+    edited env trains anew in a new run; the old one is kept)."""
     runs = sorted((work / name / "ddpg_her").glob("*/config.json")) if work.exists() else []
-    return runs[-1].parent if runs else None
+    digest = registry.env_digest(name)
+    same = [run.parent for run in runs if _recorded_env(run.parent) == digest]
+    if runs and not same:
+        print(f"{name}: its env changed since {runs[-1].parent} trained it; training anew")
+    return same[-1] if same else None
+
+
+def _recorded_env(run: Path) -> str | None:
+    record = run / SKILL_RECORD
+    return json.loads(record.read_text())["env"] if record.exists() else None
 
 
 def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
@@ -128,6 +144,7 @@ def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
         resume=str(previous) if previous else None,
     )
     run_dir, carry = train_and_keep(args)
+    (run_dir / SKILL_RECORD).write_text(json.dumps({"env": registry.env_digest(name)}))
     if logged_epochs(run_dir) < args.train.epochs:  # Ctrl-C or SIGTERM: it saved and said so
         raise KeyboardInterrupt
     return jax.tree.map(lambda x: x[0], carry.agent), run_dir
@@ -179,7 +196,7 @@ def fit_library(names, agents, data, config: LibraryConfig, progress: bool):
     delta = s_T - np.asarray(library.anchor_point(envs[0].layout, config.anchor, s0, goal))
     train_w = np.ones((K, N), np.float32)
     train_w[:, N - n_val :] = 0.0
-    in_stats = [fit.standardize(x[k], train_w[k]) for k in range(K)]
+    in_stats = [fit.standardize(x[k], train_w[k], config.still_inputs) for k in range(K)]
     d_stats = [fit.standardize(delta[k], train_w[k] * success[k]) for k in range(K)]
     in_norm = library.Norm(*map(jnp.asarray, map(np.stack, zip(*in_stats, strict=True))))
     d_norm = library.Norm(*map(jnp.asarray, map(np.stack, zip(*d_stats, strict=True))))
@@ -292,6 +309,7 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
     default_work = out.with_name(f".{out.name}.work")
     work = check_writable_path(default_work if work is None else work, "--work")
     names = args.names()
+    args = dataclasses.replace(args, config=registry.build_config(args.library, args.config))
     config, timings, success, agents, runs, data = args.config, {}, {}, [], {}, {}
     for name in names:
         t0 = time.time()

@@ -38,6 +38,13 @@ class LibraryConfig:
     """What coarse predictions and recalled memories are measured from: 'start' (the thesis:
     the change from the start) or 'goal' (positions relative to the skill's goal, where a
     successful run ends). Table 5.1 for both: docs/results.md."""
+    still_inputs: Literal["floor", "ignore"] = "floor"
+    """Input dimensions of a skill's classifier and model that do not vary in its collected
+    data (std below `skills.fit.NORM_FLOOR`, e.g. velocities where every start is placed at
+    rest): 'floor' divides them by NORM_FLOOR (the original), so that a small velocity met in
+    a task reads as many stds off and can throw the nets off; 'ignore' leaves them out (the
+    push library's, `skills.registry.LIBRARY_BUILD`: with 'floor' its classifier gave pushes
+    from good starts met in FetchPush a median 0.12, from its own starts 0.78)."""
     classifier_hidden: tuple[int, ...] = (50, 10)
     """Hidden widths of the success classifier (thesis: 50, 10)."""
     classifier_lr: float = 1e-3

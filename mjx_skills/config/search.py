@@ -29,6 +29,10 @@ class SearchConfig:
     """Depth of the tree (thesis: 3): 5 + 25 + 125 edges at the defaults."""
     prune_below: float = 0.5
     """Edges whose success probability is at or below this are pruned (thesis: 0.5)."""
+    skip_reached: bool = False
+    """Prune edges whose skill has already reached its goal where the edge starts (it would
+    end at once, a step spent for nothing; False: the thesis). The push library's preset
+    (`fetch_push`) sets it: there, approach at its goal was picked over and over."""
     lookahead_next: Literal["model", "memory"] = "model"
     """Next state of an edge: the coarse dynamics model or memory retrieval."""
     leaf_state: Literal["predicted", "goal"] = "predicted"

@@ -108,7 +108,11 @@ class MultiObjectEnv(GoalEnv, Protocol):
 
 class SkillEnv(GoalEnv, Protocol):
     """A skill of a robot's skill library (`envs.skills`): what the library, its fits and
-    the search read of it beyond a GoalEnv."""
+    the search read of it beyond a GoalEnv.
+
+    Optional: `collection_param(key, obs (n, obs_dim)) -> (n, param_dim)`, how the library's
+    data collection draws the goal parameters of n runs from their start states (without
+    it, uniform in [-1, 1]; `skills.fit.make_collect`)."""
 
     param_dim: int
     """How many goal parameters in [-1, 1] the skill reads (of the library's padded 3)."""

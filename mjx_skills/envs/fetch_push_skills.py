@@ -37,6 +37,28 @@ PUSH_HEIGHT = (0.0, 0.02)
 (where the scripted push pushes) to the lowest goal of approach (transit's box floor,
 `fetch_skills.GRIP_CLEARANCE`)."""
 
+RAISE = 0.08
+"""How far (m) above a push's start approach goes first where the grip is not yet over it
+(`LINE_UP`): the closed fingertips reach 5 cm below the grip, so from PUSH_HEIGHT's top + RAISE
+they pass over the block's top (BLOCK_HALF above its centre) instead of knocking it."""
+LINE_UP = 0.05
+"""How close (m, in x and y) to a push's start the grip must be for approach to go down to it
+(`skills.registry`'s proposer of approach); farther, approach goes RAISE above it first."""
+
+APPROACH_NOISE = 1 / 3
+"""Approach's goals scatter this share of `SearchConfig.object_goal_noise` in x and y (1 cm at
+the default): at 3 cm, each new approach chased a goal 3 cm off and push never started."""
+LATERAL = 0.02
+"""How far (m) across the push a training start's grip may lie off the line through the
+block's centre, uniform: approach ends within 3 cm of its goal, so push meets such starts."""
+COLLECT_ALIGNED = 0.5
+"""Share of push's data-collection runs whose goal lies along the grip's line through the
+block (within COLLECT_TURN), as the search asks pushes after approach; the others draw the
+goal parameters uniformly (pushes sideways and backwards, which fail: the classifier's
+negatives). All uniform, 86 % of the collected pushes failed (`collection_param`)."""
+COLLECT_TURN = jnp.pi / 4
+"""Largest angle (rad) between an aligned collection push and the grip's line to the block."""
+
 
 class _PushScene:
     """FetchPush's scene, whose fingers are blocked closed, for a Fetch skill: both skills of
@@ -69,8 +91,9 @@ class FetchApproach(_PushScene, FetchTransit):
 
 
 class FetchPushBlock(_PushScene, FetchSkill):
-    """From BEHIND behind the block's centre at PUSH_HEIGHT, push the block along the table to
-    a goal 5-15 cm away within 3 cm (20 steps), in FetchPush's scene: fingers blocked."""
+    """From BEHIND behind the block's centre at PUSH_HEIGHT (LATERAL off its line), push the
+    block along the table to a goal 5-15 cm away within 3 cm (20 steps), in FetchPush's
+    scene: fingers blocked."""
 
     near_clearance = 0.0
     param_dim = 2
@@ -78,14 +101,29 @@ class FetchPushBlock(_PushScene, FetchSkill):
     memory_dims = FetchGrasp.memory_dims
 
     def sample_start(self, key):
-        k_block, k_angle, k_distance, k_height = jax.random.split(key, 4)
+        k_block, k_angle, k_distance, k_height, k_side = jax.random.split(key, 5)
         block = self.sample_on_table(k_block)
         angle = jax.random.uniform(k_angle, (), minval=0.0, maxval=2 * jnp.pi)
         way = jnp.stack([jnp.cos(angle), jnp.sin(angle), jnp.zeros(())])
         distance = jax.random.uniform(k_distance, (), minval=PUSH_RANGE[0], maxval=PUSH_RANGE[1])
         height = jax.random.uniform(k_height, (), minval=PUSH_HEIGHT[0], maxval=PUSH_HEIGHT[1])
-        grip = block - BEHIND * way + jnp.stack([jnp.zeros(()), jnp.zeros(()), height])
-        return grip, block, block + distance * way
+        side = jax.random.uniform(k_side, (), minval=-LATERAL, maxval=LATERAL)
+        across = jnp.stack([-way[1] * side, way[0] * side, height])
+        return block - BEHIND * way + across, block, block + distance * way
+
+    def collection_param(self, key: jax.Array, obs: jax.Array) -> jax.Array:
+        """key, obs (n, obs_dim) -> (n, 2) goal parameters for the library's data collection:
+        COLLECT_ALIGNED of them a push PUSH_RANGE long along the grip's line through the block
+        (turned by at most COLLECT_TURN), the others uniform in [-1, 1]."""
+        k_which, k_turn, k_distance, k_any = jax.random.split(key, 4)
+        n = obs.shape[0]
+        away = obs[:, self.layout["object"]] - obs[:, self.layout["grip"]]
+        turn = jax.random.uniform(k_turn, (n,), minval=-COLLECT_TURN, maxval=COLLECT_TURN)
+        angle = jnp.arctan2(away[:, 1], away[:, 0]) + turn
+        distance = jax.random.uniform(k_distance, (n,), minval=PUSH_RANGE[0], maxval=PUSH_RANGE[1])
+        aligned = (distance / REACH)[:, None] * jnp.stack([jnp.cos(angle), jnp.sin(angle)], -1)
+        anywhere = jax.random.uniform(k_any, (n, 2), minval=-1.0, maxval=1.0)
+        return jnp.where(jax.random.uniform(k_which, (n, 1)) < COLLECT_ALIGNED, aligned, anywhere)
 
     def goal_from_param(self, param: jax.Array, obs: jax.Array) -> jax.Array:
         offset = REACH * jnp.clip(param[..., :2], -1.0, 1.0)

@@ -350,8 +350,17 @@ PRESETS["fetch"] = {
     for name, spec in METHODS.items()
     if spec.library_group is not None
 }
+FETCH_PUSH_SEARCH = {"skip_reached": True}
+"""The search with the push library: no edge of a skill already at its goal (approach, once
+behind the block, was picked again and again; `SearchConfig.skip_reached`)."""
 PRESETS["fetch_push"] = {
-    name: {spec.library_group: {"library": "SL_fetch_push", "library_dir": FETCH_PUSH_LIBRARY}}
+    name: {
+        spec.library_group: {
+            "library": "SL_fetch_push",
+            "library_dir": FETCH_PUSH_LIBRARY,
+            **(FETCH_PUSH_SEARCH if spec.library_group == "search" else {}),
+        }
+    }
     for name, spec in METHODS.items()
     if spec.library_group is not None
 }

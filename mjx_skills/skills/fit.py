@@ -54,8 +54,12 @@ def make_collect(
         ]
         state = jax.tree.map(lambda *xs: jnp.concatenate(xs), *parts)
         n = state.obs.shape[0]
-        param = jax.random.uniform(k_param, (n, 3), minval=-1.0, maxval=1.0)
-        param = param.at[:, pd:].set(0.0)
+        if hasattr(skill_env, "collection_param"):  # the skill's own draw (SkillEnv)
+            drawn = skill_env.collection_param(k_param, state.obs)
+            param = jnp.zeros((n, 3)).at[:, :pd].set(drawn)
+        else:
+            param = jax.random.uniform(k_param, (n, 3), minval=-1.0, maxval=1.0)
+            param = param.at[:, pd:].set(0.0)
         goal = skill_env.goal_from_param(param[:, :pd], state.obs)
         s0 = state.obs
         done0 = skill_env.terminated(s0, goal)
@@ -218,12 +222,21 @@ def _keep_improved(best: Any, params: Any, improved: np.ndarray) -> Any:
     return jax.tree.map(pick, best, params)
 
 
-def standardize(x: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted mean and std over the sample axis of x (N, d); std floored at NORM_FLOOR."""
+IGNORED = 1e6
+"""The std that leaves a dimension out of a net's input (`standardize`, still='ignore')."""
+
+
+def standardize(
+    x: np.ndarray, weights: np.ndarray, still: str = "floor"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted mean and std over the sample axis of x (N, d); a std below NORM_FLOOR is
+    NORM_FLOOR, or with still='ignore' IGNORED (the dimension reads as 0 whatever it is;
+    `LibraryConfig.still_inputs`)."""
     w = weights[:, None] / max(weights.sum(), 1.0)
     mean = (w * x).sum(0)
     std = np.sqrt((w * (x - mean) ** 2).sum(0))
-    return mean.astype(np.float32), np.maximum(std, NORM_FLOOR).astype(np.float32)
+    low = IGNORED if still == "ignore" else NORM_FLOOR
+    return mean.astype(np.float32), np.where(std < NORM_FLOOR, low, std).astype(np.float32)
 
 
 def auc(scores: np.ndarray, labels: np.ndarray) -> float:

@@ -173,6 +173,8 @@ def search_envs(
             & ok.reshape(shape)
             & (prob.reshape(shape) > cfg.prune_below)
         )
+        if cfg.skip_reached:
+            valid &= ~lib.reached(sk, s_rep, g).reshape(shape)
         if obstacles is not None:
             near = jnp.repeat(obstacles, n * b, axis=0)
             grip = s_rep[:, lib.layout["grip"]]

@@ -23,7 +23,7 @@ import inspect
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -162,16 +162,25 @@ def _behind_object(env, cfg: SearchConfig, e: Edges) -> jax.Array:
     way = (e.task_goal[:, None] - obj) * jnp.array([1.0, 1.0, 0.0])
     way = way / jnp.maximum(jnp.linalg.norm(way, axis=-1, keepdims=True), 1e-6)
     goal = obj - push.BEHIND * way + jnp.array([0.0, 0.0, push.PUSH_HEIGHT[1]])
-    goal = goal + cfg.object_goal_noise * e.noise * jnp.array([1.0, 1.0, 0.0])
+    grip = e.obs[:, None, env.layout["grip"]]
+    far = jnp.linalg.norm((goal - grip)[..., :2], axis=-1, keepdims=True) > push.LINE_UP
+    goal = goal + jnp.where(far, jnp.array([0.0, 0.0, push.RAISE]), 0.0)
+    goal = goal + push.APPROACH_NOISE * cfg.object_goal_noise * e.noise * jnp.array([1, 1, 0])
     return jnp.clip(goal, env.box_low, env.box_high)
 
 
 def _toward_task_goal(env, cfg: SearchConfig, e: Edges) -> jax.Array:
-    """Push: from the object towards the task's goal along the table, at most REACH in x and
-    in y (its goal parameters' range), with `transfer_goal_noise` in x and y."""
+    """Push: from the object towards the task's goal along the table, as far as a push trains
+    for (uniform in PUSH_RANGE, through the waypoint coin) or to the goal if nearer, with
+    `transfer_goal_noise` in x and y. Short pushes are likelier to succeed, and a push leaves
+    the grip behind the block for the next one."""
     obj = e.obs[:, None, env.layout["object"]]
     flat = jnp.array([1.0, 1.0, 0.0])
-    step = jnp.clip((e.task_goal[:, None] - obj) * flat, -push.REACH, push.REACH)
+    way = (e.task_goal[:, None] - obj) * flat
+    distance = jnp.linalg.norm(way, axis=-1, keepdims=True)
+    low, high = push.PUSH_RANGE
+    length = jnp.minimum(distance, low + (high - low) * e.way)
+    step = way * length / jnp.maximum(distance, 1e-6)
     return obj + step + cfg.transfer_goal_noise * e.noise * flat
 
 
@@ -328,6 +337,21 @@ def register_library(name: str, skills: tuple[str, ...]) -> None:
     LIBRARIES[name] = skills
 
 
+LIBRARY_BUILD: dict[str, dict[str, Any]] = {"SL_fetch_push": {"still_inputs": "ignore"}}
+"""Library name -> the LibraryConfig fields its build sets where the command leaves them at
+their defaults (`build_config`)."""
+
+
+def build_config(library: str | None, config: LibraryConfig) -> LibraryConfig:
+    """`config` with library `library`'s build settings (LIBRARY_BUILD) in the fields it
+    leaves at their defaults."""
+    default = LibraryConfig()
+    own = LIBRARY_BUILD.get(library or "", {})
+    return dataclasses.replace(
+        config, **{f: v for f, v in own.items() if getattr(config, f) == getattr(default, f)}
+    )
+
+
 def epochs_of(skill: Skill, config: LibraryConfig) -> int:
     """The DDPG+HER epochs `build_library` trains `skill` for (`Skill.epochs`)."""
     return getattr(config, skill.epochs) if isinstance(skill.epochs, str) else skill.epochs
@@ -347,6 +371,12 @@ def fingerprint(library: str) -> dict[str, dict[str, str]] | None:
         fields.update(propose=_source_digest(skill.propose), env=_source_digest(skill.env))
         out[name] = fields
     return out
+
+
+def env_digest(name: str) -> str:
+    """A digest of skill `name`'s env's source (as `fingerprint`'s): what its trained policy
+    depends on beyond its training config, so a build resumes only a run of the same env."""
+    return _source_digest(get(name).env)
 
 
 def _source_digest(obj) -> str:
