@@ -31,7 +31,14 @@ import numpy as np
 import tyro
 from tqdm.auto import tqdm
 
-from mjx_skills.config import SEED_LIMIT, DDPGConfig, EnvConfig, LibraryConfig, TrainConfig
+from mjx_skills.config import (
+    SEED_LIMIT,
+    DDPGConfig,
+    EnvConfig,
+    LibraryConfig,
+    TrainConfig,
+    build_config,
+)
 from mjx_skills.core import compile_cache, plugins, rollout
 from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.precision import use_float32
@@ -106,24 +113,16 @@ class SkillsArgs:
 
 
 SKILL_RECORD = "skill_env.json"
-"""In a skill's training run: the digest of the skill env's source that trained it
-(`registry.env_digest`); a build resumes only a run of the skill's env as it is now."""
+"""A skill run's env source digest (`registry.env_digest`): a build resumes only a match."""
 
 
 def _latest_run(work: Path, name: str) -> Path | None:
-    """The newest training run of `name` in `work` made by the skill's env as it is now (an
-    edited env trains anew in a new run; the old one is kept)."""
-    runs = sorted((work / name / "ddpg_her").glob("*/config.json")) if work.exists() else []
-    digest = registry.env_digest(name)
-    same = [run.parent for run in runs if _recorded_env(run.parent) == digest]
+    """The newest run of `name` in `work` by its env as it is now (else a new run; none lost)."""
+    runs = sorted((work / name / "ddpg_her").glob("*/" + SKILL_RECORD)) if work.exists() else []
+    same = [r.parent for r in runs if json.loads(r.read_text())["env"] == registry.env_digest(name)]
     if runs and not same:
         print(f"{name}: its env changed since {runs[-1].parent} trained it; training anew")
     return same[-1] if same else None
-
-
-def _recorded_env(run: Path) -> str | None:
-    record = run / SKILL_RECORD
-    return json.loads(record.read_text())["env"] if record.exists() else None
 
 
 def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
@@ -309,7 +308,7 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
     default_work = out.with_name(f".{out.name}.work")
     work = check_writable_path(default_work if work is None else work, "--work")
     names = args.names()
-    args = dataclasses.replace(args, config=registry.build_config(args.library, args.config))
+    args = dataclasses.replace(args, config=build_config(args.library, args.config))
     config, timings, success, agents, runs, data = args.config, {}, {}, [], {}, {}
     for name in names:
         t0 = time.time()

@@ -8,7 +8,7 @@ rest of the package (task and method names are checked where envs and methods ar
 from mjx_skills.config.checks import SEED_LIMIT, check_numbers, checked_value
 from mjx_skills.config.ddpg import DDPGConfig
 from mjx_skills.config.env import LIBRARIES, PHYSICS, EnvConfig, Library, Physics
-from mjx_skills.config.library import LibraryConfig
+from mjx_skills.config.library import LIBRARY_BUILD, LibraryConfig, build_config
 from mjx_skills.config.search import PASConfig, SearchConfig
 from mjx_skills.config.train import TrainConfig
 
@@ -16,6 +16,7 @@ __all__ = [
     "DDPGConfig",
     "EnvConfig",
     "LIBRARIES",
+    "LIBRARY_BUILD",
     "Library",
     "LibraryConfig",
     "PASConfig",
@@ -24,6 +25,7 @@ __all__ = [
     "SEED_LIMIT",
     "SearchConfig",
     "TrainConfig",
+    "build_config",
     "check_numbers",
     "checked_value",
 ]

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Literal
+from typing import Any, Literal
 
 from mjx_skills.config.checks import _check, check_numbers
 
@@ -43,7 +43,7 @@ class LibraryConfig:
     data (std below `skills.fit.NORM_FLOOR`, e.g. velocities where every start is placed at
     rest): 'floor' divides them by NORM_FLOOR (the original), so that a small velocity met in
     a task reads as many stds off and can throw the nets off; 'ignore' leaves them out (the
-    push library's, `skills.registry.LIBRARY_BUILD`: with 'floor' its classifier gave pushes
+    push library's, `config.library.LIBRARY_BUILD`: with 'floor' its classifier gave pushes
     from good starts met in FetchPush a median 0.12, from its own starts 0.78)."""
     classifier_hidden: tuple[int, ...] = (50, 10)
     """Hidden widths of the success classifier (thesis: 50, 10)."""
@@ -82,3 +82,18 @@ class LibraryConfig:
             _check(len(widths) > 0 and all(w > 0 for w in widths), name, "need >= 1 positive width")
         for name in ("model_lr", "classifier_lr"):
             _check(getattr(self, name) > 0, name, "must be > 0")
+
+
+LIBRARY_BUILD: dict[str, dict[str, Any]] = {"SL_fetch_push": {"still_inputs": "ignore"}}
+"""Library name -> the LibraryConfig fields its build sets where the command leaves them at
+their defaults (`build_config`); the name is the library's in `skills.registry.LIBRARIES`."""
+
+
+def build_config(library: str | None, config: LibraryConfig) -> LibraryConfig:
+    """`config` with library `library`'s build settings (LIBRARY_BUILD) in the fields it
+    leaves at their defaults."""
+    default = LibraryConfig()
+    own = LIBRARY_BUILD.get(library or "", {})
+    return dataclasses.replace(
+        config, **{f: v for f, v in own.items() if getattr(config, f) == getattr(default, f)}
+    )

@@ -23,7 +23,7 @@ import inspect
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Literal, NamedTuple
+from typing import Literal, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -335,21 +335,6 @@ def register_library(name: str, skills: tuple[str, ...]) -> None:
     if len(robots) > 1:
         raise ValueError(f"library {name!r}: its skills are of several robots ({sorted(robots)})")
     LIBRARIES[name] = skills
-
-
-LIBRARY_BUILD: dict[str, dict[str, Any]] = {"SL_fetch_push": {"still_inputs": "ignore"}}
-"""Library name -> the LibraryConfig fields its build sets where the command leaves them at
-their defaults (`build_config`)."""
-
-
-def build_config(library: str | None, config: LibraryConfig) -> LibraryConfig:
-    """`config` with library `library`'s build settings (LIBRARY_BUILD) in the fields it
-    leaves at their defaults."""
-    default = LibraryConfig()
-    own = LIBRARY_BUILD.get(library or "", {})
-    return dataclasses.replace(
-        config, **{f: v for f, v in own.items() if getattr(config, f) == getattr(default, f)}
-    )
 
 
 def epochs_of(skill: Skill, config: LibraryConfig) -> int:

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_skills.envs import make
-from mjx_skills.envs.fetch_push_skills import BEHIND, PUSH_HEIGHT, PUSH_RANGE, REACH
+from mjx_skills.envs.fetch_push_skills import BEHIND, LATERAL, PUSH_HEIGHT, PUSH_RANGE, REACH
 from mjx_skills.envs.fetch_skills import FetchTransit
 
 N = 32
@@ -33,11 +33,13 @@ def test_a_push_starts_behind_the_block_with_its_goal_along_the_push():
     assert np.all((height > PUSH_HEIGHT[0] - 0.01) & (height < PUSH_HEIGHT[1] + 0.01))
     behind = block[:, :2] - grip[:, :2]
     push = goal[:, :2] - block[:, :2]
-    np.testing.assert_allclose(np.linalg.norm(behind, axis=-1), BEHIND, atol=1e-5)
     length = np.linalg.norm(push, axis=-1)
     assert np.all((length >= PUSH_RANGE[0] - 1e-6) & (length <= PUSH_RANGE[1] + 1e-6))
-    cosine = np.sum(behind * push, axis=-1) / (BEHIND * length)
-    np.testing.assert_allclose(cosine, 1.0, atol=1e-5)  # grip, block and goal in one line
+    way = push / length[:, None]
+    along = np.sum(behind * way, axis=-1)  # BEHIND behind the block, opposite the push ...
+    across = behind[:, 0] * way[:, 1] - behind[:, 1] * way[:, 0]  # ... and off its line
+    np.testing.assert_allclose(along, BEHIND, atol=1e-5)
+    assert np.abs(across).max() <= LATERAL + 1e-6 and np.abs(across).max() > LATERAL / 2
     np.testing.assert_allclose(goal[:, 2], block[:, 2])  # on the table
     assert bool(jnp.all(state.done == 0)) and float(state.metrics["physics_resets"].sum()) == 0
     assert not bool(jnp.any(env.terminated(state.obs, state.desired_goal)))

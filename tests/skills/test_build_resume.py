@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from mjx_skills import build_library
-from mjx_skills.config import LibraryConfig
+from mjx_skills.config import LibraryConfig, build_config
 from mjx_skills.skills import registry
 
 
@@ -56,7 +56,7 @@ def test_the_push_library_builds_with_still_inputs_left_out_of_its_nets():
     assert floor[0] == ignore[0] > 0.2  # a varying dimension is normalised alike
     assert 0.01 / ignore[1] < 1e-6 < 0.01 / floor[1]  # a small velocity: nothing, or 10 stds
 
-    assert registry.build_config("SL_fetch_push", LibraryConfig()).still_inputs == "ignore"
-    assert registry.build_config("SL1_fetch", LibraryConfig()).still_inputs == "floor"
+    assert build_config("SL_fetch_push", LibraryConfig()).still_inputs == "ignore"
+    assert build_config("SL1_fetch", LibraryConfig()).still_inputs == "floor"
     mine = LibraryConfig(still_inputs="ignore", samples=300)
-    assert registry.build_config(None, mine) == mine
+    assert build_config(None, mine) == mine

@@ -16,7 +16,7 @@ import pytest
 from mjx_skills import build_library, methods
 from mjx_skills.config import DDPGConfig, LibraryConfig, SearchConfig, TrainConfig
 from mjx_skills.envs import make
-from mjx_skills.envs.fetch_push_skills import BEHIND, PUSH_HEIGHT, REACH
+from mjx_skills.envs.fetch_push_skills import BEHIND, LINE_UP, PUSH_HEIGHT, PUSH_RANGE, RAISE
 from mjx_skills.skills import library, lookahead, registry
 from mjx_skills.training.metrics_log import read_metrics
 from mjx_skills.training.runner import RunArgs, train_run
@@ -25,33 +25,55 @@ PUSH = registry.LIBRARIES["SL_fetch_push"]
 N, B = 8, 32
 
 
-def test_the_search_proposes_approach_behind_the_block_and_push_towards_the_goal():
-    env = make("fetch_push")
-    state = jax.vmap(env.reset)(jax.random.split(jax.random.PRNGKey(0), N))
+def _proposals(obs, task_goal):
     lib = library.empty_like(PUSH, DDPGConfig(), LibraryConfig(), memory_size=2)
     cfg = SearchConfig(branching=B, height=1, object_goal_noise=0.0, transfer_goal_noise=0.0)
     draws = lookahead.draw_edges(lookahead.env_keys(jax.random.PRNGKey(1), N), cfg, len(PUSH))
     skill, goals, ok = lookahead.sample_edges(
-        lib, cfg, state.obs, state.desired_goal, lookahead.level_draws(draws, 0, B)
+        lib, cfg, obs, task_goal, lookahead.level_draws(draws, 0, B)
     )
-    skill, goals = np.asarray(skill), np.asarray(goals)
     assert np.asarray(ok).all() and set(np.unique(skill)) == {0, 1}  # both may start
-    block = np.asarray(state.obs)[:, None, 3:6].repeat(B, 1)
-    toward = (np.asarray(state.desired_goal)[:, None].repeat(B, 1) - block)[..., :2]
-    step = goals - block
-    approach, push = skill == PUSH.index("fetch_approach"), skill == PUSH.index("fetch_push_block")
+    return np.asarray(skill), np.asarray(goals)
+
+
+def test_the_search_proposes_approach_behind_the_block_and_push_towards_the_goal():
+    """Approach: BEHIND behind the block opposite the task's goal, PUSH_HEIGHT's top above
+    its centre where the grip is already over that point (within LINE_UP), RAISE higher
+    where it is not (over the block first). Push: towards the task's goal, as far as a push
+    trains for (PUSH_RANGE) or to the goal if nearer."""
+    env = make("fetch_push")
+    state = jax.vmap(env.reset)(jax.random.split(jax.random.PRNGKey(0), N))
+    obs, task_goal = np.asarray(state.obs), np.asarray(state.desired_goal)
+    block = obs[:, None, 3:6].repeat(B, 1)
+    toward = (task_goal[:, None].repeat(B, 1) - block)[..., :2]
+    unit = toward / np.linalg.norm(toward, axis=-1, keepdims=True)
+    start = obs[:, 3:5] - BEHIND * unit[:, 0]  # (N, 2) where a push towards the goal starts
+    lined_up = obs.copy()
+    lined_up[:, 0:2] = start + 0.5 * LINE_UP
     box = make("fetch_approach")
     low, high = np.asarray(box.box_low)[:2] + 1e-6, np.asarray(box.box_high)[:2] - 1e-6
-    inside = np.all((goals[..., :2] > low) & (goals[..., :2] < high), -1)
-    free = approach & inside  # not clipped onto the edge of approach's box
-    assert free.mean() > 0.3
-    np.testing.assert_allclose(np.linalg.norm(step[free][:, :2], axis=-1), BEHIND, atol=1e-5)
-    unit = toward / np.linalg.norm(toward, axis=-1, keepdims=True)
-    np.testing.assert_allclose(np.sum(step[free][:, :2] * unit[free], -1), -BEHIND, atol=1e-5)
-    np.testing.assert_allclose(step[approach][:, 2], PUSH_HEIGHT[1], atol=1e-5)
+    for where, rise in ((obs, RAISE), (lined_up, 0.0)):
+        far = np.linalg.norm(where[:, 0:2] - start, axis=-1) > LINE_UP
+        assert far.all() if rise else not far.any()
+        skill, goals = _proposals(where, task_goal)
+        step = goals - block
+        approach = skill == PUSH.index("fetch_approach")
+        inside = np.all((goals[..., :2] > low) & (goals[..., :2] < high), -1)
+        free = approach & inside  # not clipped onto the edge of approach's box
+        assert free.mean() > 0.3
+        np.testing.assert_allclose(np.linalg.norm(step[free][:, :2], axis=-1), BEHIND, atol=1e-5)
+        np.testing.assert_allclose(np.sum(step[free][:, :2] * unit[free], -1), -BEHIND, atol=1e-5)
+        np.testing.assert_allclose(step[free][:, 2], PUSH_HEIGHT[1] + rise, atol=1e-5)
+    push = skill == PUSH.index("fetch_push_block")
     np.testing.assert_allclose(step[push][:, 2], 0.0, atol=1e-6)  # along the table
-    expected = np.clip(toward[push], -REACH, REACH)
-    np.testing.assert_allclose(step[push][:, :2], expected, atol=1e-5)
+    length, distance = (
+        np.linalg.norm(step[push][:, :2], axis=-1),
+        np.linalg.norm(toward[push], axis=-1),
+    )
+    np.testing.assert_allclose(np.sum(step[push][:, :2] * unit[push], -1), length, atol=1e-5)
+    shortest, longest = (np.minimum(distance, r) for r in PUSH_RANGE)
+    assert np.all((length > shortest - 1e-5) & (length < longest + 1e-5))
+    assert np.ptp(length) > 0.03  # lengths drawn, not one
 
 
 def test_build_library_builds_a_named_library_into_its_own_directory():
