@@ -43,7 +43,7 @@ from mjx_skills.core import compile_cache, plugins, rollout
 from mjx_skills.core.paths import check_writable_path
 from mjx_skills.core.precision import use_float32
 from mjx_skills.methods.ddpg_her import make_ddpg_her
-from mjx_skills.skills import fit, library, registry
+from mjx_skills.skills import fit, library, registry, work_runs
 from mjx_skills.skills.table import evaluate_models, write_table
 from mjx_skills.training.interrupt import INTERRUPTED
 from mjx_skills.training.metrics_log import logged_epochs, read_metrics
@@ -112,24 +112,11 @@ class SkillsArgs:
         return names
 
 
-SKILL_RECORD = "skill_env.json"
-"""A skill run's env source digest (`registry.env_digest`): a build resumes only a match."""
-
-
-def _latest_run(work: Path, name: str) -> Path | None:
-    """The newest run of `name` in `work` by its env as it is now (else a new run; none lost)."""
-    runs = sorted((work / name / "ddpg_her").glob("*/" + SKILL_RECORD)) if work.exists() else []
-    same = [r.parent for r in runs if json.loads(r.read_text())["env"] == registry.env_digest(name)]
-    if runs and not same:
-        print(f"{name}: its env changed since {runs[-1].parent} trained it; training anew")
-    return same[-1] if same else None
-
-
 def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
     """DDPG+HER on the skill's env (resuming an interrupted run in `work`) -> (agent, run dir)."""
     skill = registry.get(name)
     held = config.grasp_held_start_prob if skill.held_training_starts else 0.0
-    previous = _latest_run(work, name)
+    previous = work_runs.latest(work, name)
     args = RunArgs(
         train=TrainConfig(
             task=name,
@@ -143,7 +130,7 @@ def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
         resume=str(previous) if previous else None,
     )
     run_dir, carry = train_and_keep(args)
-    (run_dir / SKILL_RECORD).write_text(json.dumps({"env": registry.env_digest(name)}))
+    work_runs.record(run_dir, name)
     if logged_epochs(run_dir) < args.train.epochs:  # Ctrl-C or SIGTERM: it saved and said so
         raise KeyboardInterrupt
     return jax.tree.map(lambda x: x[0], carry.agent), run_dir

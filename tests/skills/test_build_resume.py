@@ -11,7 +11,7 @@ import numpy as np
 
 from mjx_skills import build_library
 from mjx_skills.config import LibraryConfig, build_config
-from mjx_skills.skills import registry
+from mjx_skills.skills import registry, work_runs
 
 
 def test_a_build_resumes_only_a_run_of_the_same_skill_env(tmp_path, monkeypatch, capsys):
@@ -36,10 +36,15 @@ def test_a_build_resumes_only_a_run_of_the_same_skill_env(tmp_path, monkeypatch,
     monkeypatch.setattr(registry, "env_digest", lambda name: "edited")
     anew = build_library.train_skill("transit", config, work, progress=False)[1]
     assert resumed[-1] is None and anew != first
-    assert "its env changed" in capsys.readouterr().out
+    assert "trained by another or unrecorded env" in capsys.readouterr().out
     # The edited env's run is the one resumed from now on; the first is kept, not reused.
     build_library.train_skill("transit", config, work, progress=False)
     assert resumed[-1] == str(anew) and (first / "metrics.jsonl").exists()
+    # A run that records no env (made before the record, or killed before its end) is not
+    # resumed either: nothing says which env trained it.
+    (anew / work_runs.SKILL_RECORD).unlink()
+    build_library.train_skill("transit", config, work, progress=False)
+    assert resumed[-1] is None and "unrecorded" in capsys.readouterr().out
 
 
 def test_the_push_library_builds_with_still_inputs_left_out_of_its_nets():
