@@ -69,15 +69,8 @@ def main() -> None:
     approach, push_id = lib.names.index("fetch_approach"), lib.names.index("fetch_push_block")
     grip_of, obj_of = env.layout["grip"], env.layout["object"]
     T = rec["skill"].shape[1]
-    calls, chained, off_start, angle, to_push_goal, to_task, moved_before = (
-        [],
-        0,
-        [],
-        [],
-        [],
-        [],
-        [],
-    )
+    calls, off_start, angle, to_push_goal, to_task, moved_before = [], [], [], [], [], []
+    chained = 0
     for e in range(args.envs):
         starts = [t for t in range(T) if rec["skill_calls"][e, t]]
         calls.append(len(starts))

@@ -339,31 +339,28 @@ PRESETS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
         },
     },
 }
-PRESETS["fetch"] = {
-    name: {
-        spec.library_group: {
-            "library": "SL1_fetch",
-            "library_dir": FETCH_LIBRARY,
-            **(FETCH_SEARCH if spec.library_group == "search" else {}),
-        }
-    }
-    for name, spec in METHODS.items()
-    if spec.library_group is not None
-}
 FETCH_PUSH_SEARCH = {"skip_reached": True}
 """The search with the push library: no edge of a skill already at its goal (approach, once
 behind the block, was picked again and again; `SearchConfig.skip_reached`)."""
-PRESETS["fetch_push"] = {
-    name: {
-        spec.library_group: {
-            "library": "SL_fetch_push",
-            "library_dir": FETCH_PUSH_LIBRARY,
-            **(FETCH_PUSH_SEARCH if spec.library_group == "search" else {}),
+
+
+def _library_preset(library: str, directory: str, search: dict[str, Any]) -> dict[str, Any]:
+    """Every library method pointed at `library` in `directory`, the search with `search`."""
+    return {
+        name: {
+            spec.library_group: {
+                "library": library,
+                "library_dir": directory,
+                **(search if spec.library_group == "search" else {}),
+            }
         }
+        for name, spec in METHODS.items()
+        if spec.library_group is not None
     }
-    for name, spec in METHODS.items()
-    if spec.library_group is not None
-}
+
+
+PRESETS["fetch"] = _library_preset("SL1_fetch", FETCH_LIBRARY, FETCH_SEARCH)
+PRESETS["fetch_push"] = _library_preset("SL_fetch_push", FETCH_PUSH_LIBRARY, FETCH_PUSH_SEARCH)
 """Named option sets by method and group, applied over the defaults (explicit flags win).
 'fetch': the library methods with the skills built on Fetch, for the Fetch tasks;
 'fetch_push': with the push library of Fetch (approach and push), for FetchPush.

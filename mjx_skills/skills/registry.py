@@ -353,7 +353,7 @@ def fingerprint(library: str) -> dict[str, dict[str, str]] | None:
     for name in library_skills(library):
         skill = get(name)
         fields = {f.name: repr(getattr(skill, f.name)) for f in dataclasses.fields(skill)}
-        fields.update(propose=_source_digest(skill.propose), env=_source_digest(skill.env))
+        fields.update(propose=_source_digest(skill.propose), env=env_digest(name))
         out[name] = fields
     return out
 
