@@ -68,7 +68,7 @@ def method_args_type(spec: methods.Method, preset: str = "default") -> type:
     groups = methods.preset_options(spec.name, preset)
     train = Annotated[TrainConfig, tyro.conf.OmitArgPrefixes]
     fields = [
-        ("train", train, dataclasses.field(default=TrainConfig())),
+        ("train", train, dataclasses.field(default=methods.preset_train(spec.name, preset))),
         ("env", EnvConfig, dataclasses.field(default=EnvConfig())),
         *[
             (name, type(default), dataclasses.field(default=default))

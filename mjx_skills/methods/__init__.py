@@ -24,6 +24,7 @@ from mjx_skills.methods.ddpg_her_sl_fast import (
     FastConfig,
     make_ddpg_her_sl_fast,
 )
+from mjx_skills.methods.library_robot import check_robot
 from mjx_skills.methods.pas import make_pas
 
 
@@ -159,68 +160,14 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     names the library's robot and how to build one for the task's robot, or says that no
     command builds one yet. Also a ValueError for an unregistered library name, or a built
     library without a skill the named library needs. Reads only the manifest: nothing is
-    loaded or written."""
-    from mjx_skills.core.files import read_json
-    from mjx_skills.core.paths import in_checkout
-    from mjx_skills.envs.registry import robot_of
-    from mjx_skills.skills.library import default_dir, library_robot
-    from mjx_skills.skills.registry import (
-        libraries_of,
-        library_robot_name,
-        library_skills,
-        robots_with_skills,
-        skills_of,
-    )
-
+    loaded or written (`library_robot.check_robot`)."""
     spec = get(method)
     group = spec.library_group
     if group is None:
         return
-    robot = robot_of(task)
     chosen = (options or {}).get(group, spec.options[group])
-    skills = library_skills(chosen.library)  # ValueError naming the registered libraries
-    directory = in_checkout(chosen.library_dir)
-    manifest = directory / "manifest.json"
-    named_for = library_robot_name(chosen.library)
-    built = read_json(manifest) if manifest.exists() else {}
-    built_for = library_robot(built) if built else named_for  # what would be built there
-    if built_for == robot and named_for != robot:
-        raise ValueError(
-            f"--{group}.library {chosen.library} names {named_for.capitalize()} skills; "
-            f"{task} is a {robot.capitalize()} task: pass --{group}.library "
-            f"{' or '.join(libraries_of(robot))}"
-        )
-    if built_for == robot:  # the right robot: does it hold the skills the name needs?
-        models = built.get("models")  # a manifest without them (a fake) says nothing
-        lacking = [n for n in skills if n not in models] if models is not None else []
-        if lacking:
-            raise ValueError(
-                f"--{group}.library {chosen.library} needs the skills {', '.join(skills)}; the "
-                f"library at {directory} (--{group}.library-dir) was built without "
-                f"{', '.join(lacking)}: build one with them (`python -m mjx_skills.build_library "
-                f"--import YOUR_MODULE --out DIR`) and pass --{group}.library-dir DIR"
-            )
-        return
-    flag = f"--{group}.library-dir"
-    state = "is built" if manifest.exists() else "would be built (none there yet)"
-    said = f"the skill library {state} for the {built_for.capitalize()} robot ({directory})"
-    if robot in robots_with_skills():
-        raise ValueError(
-            f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run with "
-            f"it: pass --{group}.library {' or '.join(libraries_of(robot))} (the "
-            f"{robot.capitalize()} skills) and {flag} {default_dir(robot)}, which `python -m "
-            f"mjx_skills.build_library --robot {robot} --library {libraries_of(robot)[0]}` "
-            f"builds (`make skills ROBOT={robot}`)"
-            + (f"; `--preset {robot}` sets both" if robot in PRESETS else "")
-        )
-    flat = ", ".join(m for m, s in METHODS.items() if s.library_group is None)
-    raise ValueError(
-        f"{said}; {task} is a {robot.capitalize()} task, which {method} cannot run: no "
-        f"skills of the {robot.capitalize()} robot are registered (`python -m "
-        f"mjx_skills.build_library` trains the skill envs {', '.join(skills_of(built_for))}, which are "
-        f"{built_for.capitalize()}'s; docs/extending.md says how to register skills): train "
-        f"{task} with {flat}"
-    )
+    flat = [m for m, s in METHODS.items() if s.library_group is None]
+    check_robot(method, group, chosen, task, set(PRESETS), flat)
 
 
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
@@ -361,9 +308,17 @@ def _library_preset(library: str, directory: str, search: dict[str, Any]) -> dic
 
 PRESETS["fetch"] = _library_preset("SL1_fetch", FETCH_LIBRARY, FETCH_SEARCH)
 PRESETS["fetch_push"] = _library_preset("SL_fetch_push", FETCH_PUSH_LIBRARY, FETCH_PUSH_SEARCH)
-"""Named option sets by method and group, applied over the defaults (explicit flags win).
+FETCH_PUSH_TRAIN = {"updates_per_cycle": 200}
+PRESETS["fetch_push"]["ddpg_her_sl"]["search"]["eps_decay_epochs"] = 60
+PRESETS["fetch_push"]["ddpg_her_sl"]["train"] = FETCH_PUSH_TRAIN
+PRESETS["fetch_push"]["ddpg_her"] = {"train": FETCH_PUSH_TRAIN}
+"""Named option sets by method and group, applied over the defaults (explicit flags win);
+the group 'train' sets `TrainConfig` fields (`preset_train`).
 'fetch': the library methods with the skills built on Fetch, for the Fetch tasks;
-'fetch_push': with the push library of Fetch (approach and push), for FetchPush.
+'fetch_push': with the push library of Fetch (approach and push), for FetchPush, and
+DDPG+HER+SL's learner as tuned there on the tuning seeds (eps over 60 epochs, 200 updates
+per cycle; docs/results.md, the Fetch section), DDPG+HER given the same updates (its matched
+baseline).
 'thesis': each method as the thesis formulates it, where our defaults depart from it by
 measurement (field by field, with what they change: docs/results.md, "Our defaults against the thesis's formulation"). DDPG+HER
 has no departure of formulation (its hyperparameters: `DDPGConfig`)."""
@@ -379,6 +334,15 @@ def preset_options(method: str, preset: str = "default") -> dict[str, Any]:
         group: dataclasses.replace(default, **changes.get(group, {}))
         for group, default in spec.options.items()
     }
+
+
+def preset_train(method: str, preset: str = "default") -> Any:
+    """`TrainConfig()` with the 'train' fields of `preset` for `method` applied (the command's
+    and an experiment's [train] apply over it). ValueError on an unknown method or preset."""
+    from mjx_skills.config import TrainConfig
+
+    preset_options(method, preset)  # names the valid methods and presets
+    return dataclasses.replace(TrainConfig(), **PRESETS[preset].get(method, {}).get("train", {}))
 
 
 def get(name: str) -> Method:

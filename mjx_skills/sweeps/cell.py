@@ -49,7 +49,7 @@ class Cell:
 
     def run_args(self, out: str, progress: bool = True):
         from mjx_skills import methods
-        from mjx_skills.config import EnvConfig, TrainConfig
+        from mjx_skills.config import EnvConfig
         from mjx_skills.training.runner import RunArgs
 
         spec = methods.get(self.method)
@@ -58,7 +58,8 @@ class Cell:
             groups.setdefault(methods.get(self.method).library_group, {})["library"] = self.library
         base = methods.preset_options(self.method, self.preset)
         options = {g: dataclasses.replace(base[g], **groups.get(g, {})) for g in spec.options}
-        train = TrainConfig(
+        train = dataclasses.replace(
+            methods.preset_train(self.method, self.preset),
             task=self.task,
             epochs=self.epochs,
             seed=self.seed,

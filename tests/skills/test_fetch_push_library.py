@@ -101,6 +101,30 @@ def test_the_fetch_push_preset_gives_every_library_method_the_push_library():
         methods.check_task(method, "fetch_push", options)  # the Fetch robot's: accepted
 
 
+@pytest.mark.parametrize(
+    "method, experiment",
+    [("ddpg_her_sl", "headline_fetch_push"), ("ddpg_her", "headline_fetch_push_her")],
+)
+def test_the_fetch_push_preset_trains_the_headline_and_its_baseline_learner(method, experiment):
+    """`make train TASK=fetch_push` (--preset fetch_push) trains what the FetchPush headline
+    and its matched baseline trained, but for the budget and seeds; an explicit flag wins,
+    and no other preset or method changes its learner."""
+    from mjx_skills import train
+    from mjx_skills.sweeps.experiments import load_experiment
+
+    (cell,) = load_experiment(experiment).cells()
+    stored = cell.run_args(out="")
+    args = train.parse([method, "--preset", "fetch_push", "--task", "fetch_push"])
+    budget = {f: getattr(stored.train, f) for f in ("epochs", "seed", "seeds", "out", "progress")}
+    assert dataclasses.replace(args.train, **budget) == stored.train
+    assert args.options == stored.options and args.env == stored.env
+    assert args.train.updates_per_cycle != TrainConfig().updates_per_cycle  # the tuned one
+    own = train.parse([method, "--preset", "fetch_push", "--updates-per-cycle", "100"])
+    assert own.train.updates_per_cycle == 100
+    assert methods.preset_train(method, "fetch") == TrainConfig()
+    assert methods.preset_train("ddpg_her_sl_fast", "fetch_push") == TrainConfig()
+
+
 def test_a_push_library_is_built_and_ddpg_her_sl_trains_fetch_push_with_it(
     tmp_path, monkeypatch, tiny_train
 ):
