@@ -6,12 +6,50 @@ exploration ended, and when it reached the target's level on its own afterwards.
 from __future__ import annotations
 
 from mjx_skills.analysis import stats
+from mjx_skills.sweeps.experiment_file import names, raw
+from mjx_skills.sweeps.seeds import describe, seed_range
 from study.headlines import experiments
+
+
+def fast_sentence(task: str, target: int, level: float, found) -> str:
+    """What DDPG+HER+SL+Fast (a learner that takes more from each episode) showed on `task`:
+    its stored cell's 5-epoch mean at the target's epoch and when it reaches `level`; or the
+    experiment that measures it while none is stored; '' if no experiment runs it."""
+    runs = [run for run in found if _is_fast(run[1].method, run[1].task, task)]
+    if runs:
+        label, cell, rows = runs[0]
+        evals = stats.scores_from_rows(rows).mean(axis=0)
+        window = slice(max(0, target - stats.WINDOW), target)
+        hit = stats.first_reaching(evals, level)
+        reached = f"reaches {level} at epoch {hit}" if hit else f"never reaches {level}"
+        seeds = describe(seed_range(cell.seed, cell.seeds))
+        return (
+            f" A learner that takes more from each episode, DDPG+HER+SL+Fast ({label}, seeds "
+            f"{seeds}), succeeds on {evals[window].mean():.2f} over epochs "
+            f"{window.start + 1}-{target} and {reached}."
+        )
+    files = [n for n in names() if _is_fast(*_method_task(raw(n)), task)]
+    if not files:
+        return ""
+    return (
+        " Whether a learner that takes more from each episode (DDPG+HER+SL+Fast) absorbs "
+        f"more of it before the explorer stops is what {files[0]} measures (not run yet)."
+    )
+
+
+def _is_fast(method: str, task: str, wanted: str) -> bool:
+    return method == "ddpg_her_sl_fast" and task == wanted
+
+
+def _method_task(experiment: dict) -> tuple[str, str]:
+    """(method, task) of an experiment file with one of each; ('', '') otherwise."""
+    methods, tasks = experiment.get("methods", []), experiment.get("tasks", [])
+    return (methods[0], tasks[0]) if len(methods) == 1 and len(tasks) == 1 else ("", "")
 
 
 def paragraph(found) -> list[str]:
     """One sentence per DDPG+HER+SL headline on a Fetch task among `found` ((label, cell,
-    metrics rows) of the section's stored cells)."""
+    metrics rows) of the section's stored cells), with what DDPG+HER+SL+Fast showed there."""
     headlines = {exp.name: exp for exp in experiments()}
     out = []
     for label, cell, rows in found:
@@ -30,8 +68,6 @@ def paragraph(found) -> list[str]:
             f"episodes reached the goal, but its frozen policy succeeded on "
             f"{evals[window].mean():.2f} of its evaluations over epochs "
             f"{window.start + 1}-{end}; on its own after that, the policy {after} (the "
-            f"target: epoch {target}). Whether a learner that takes more from each episode "
-            "(DDPG+HER+SL+Fast) absorbs more of it before the explorer stops is what "
-            "fetch_pick_and_place_fast measures."
+            f"target: epoch {target})." + fast_sentence(cell.task, target, level, found)
         )
     return ["", *out] if out else []

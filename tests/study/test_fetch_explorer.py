@@ -40,3 +40,23 @@ def test_only_a_ddpg_her_sl_headline_gets_one():
     assert fetch_explorer.paragraph([("fetch_pick_and_place_sl", tuning, _rows())]) == []
     (her,) = load_experiment("headline_fetch_pick_and_place_her").cells()  # no explorer
     assert fetch_explorer.paragraph([("headline_fetch_pick_and_place_her", her, _rows())]) == []
+
+
+def test_the_sentence_names_the_tasks_fast_experiment_and_says_what_it_showed():
+    """Each headline names DDPG+HER+SL+Fast's experiment on its own task while none is stored
+    (the push headline once named PickAndPlace's), and reads the Fast cell once it is."""
+    for headline, fast in [
+        (HEADLINE, "fetch_pick_and_place_fast"),
+        ("headline_fetch_push", "fetch_push_fast"),
+    ]:
+        (cell,) = load_experiment(headline).cells()
+        (said,) = fetch_explorer.paragraph([(headline, cell, _rows(150))])[1:]
+        assert f"is what {fast} measures (not run yet)" in said
+        (fast_cell,) = load_experiment(fast).cells()
+        target = load_experiment(headline).target["epoch"]
+        rows = [dict(r, eval_success=0.95) for r in _rows(target)]
+        found = [(headline, cell, _rows(150)), (fast, fast_cell, rows)]
+        (said,) = fetch_explorer.paragraph(found)[1:]
+        assert f"DDPG+HER+SL+Fast ({fast}, seeds 0-2), succeeds on 0.95 over epochs" in said
+        assert f"{target - 4}-{target} and reaches 0.9 at epoch 5." in said
+        assert "not run yet" not in said
