@@ -7,40 +7,23 @@ the published points marked and the peers' curves dashed."""
 
 from __future__ import annotations
 
-import json
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.core.files import read_jsonl
-from mjx_skills.core.paths import in_checkout
 from mjx_skills.sweeps import cells
 from mjx_skills.sweeps.cell import Cell
-from mjx_skills.sweeps.experiment_file import names, raw
+from mjx_skills.sweeps.experiment_file import names
 from mjx_skills.sweeps.experiments import load_experiment
-from study import fetch_budget, fetch_explorer, fetch_ranking
-from study.fetch_library import build_env_steps, library_tables
+from study import fetch_explorer, fetch_ranking
+from study.fetch_claims import ENVS, LEVEL, library_used, published, shortfalls
+from study.fetch_library import library_tables
 from study.sections import table
 
-PUBLISHED = Path(__file__).parent / "published" / "fetch_her.toml"
 PEERS = Path(__file__).parents[1] / "benchmarks" / "results" / "peer_sb3_fetch.jsonl"
 """Stable-Baselines3 on gymnasium-robotics' own envs (benchmarks/peer_sb3_fetch.py)."""
-ENVS = {
-    "fetch_push": "FetchPush",
-    "fetch_pick_and_place": "FetchPickAndPlace",
-    "fetch_reach": "FetchReach",
-    "fetch_slide": "FetchSlide",
-}
-LEVEL = 0.9
-PLAIN = "DDPG w/ HER"
-"""The published method our DDPG+HER is set against (not a variant such as HER+FA)."""
-
-
-def published() -> list[dict]:
-    """The published figures, each a dict of the data file's fields."""
-    return tomllib.loads(PUBLISHED.read_text())["figure"]
 
 
 def _stored() -> list[tuple[str, Cell, list[dict]]]:
@@ -249,107 +232,6 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
     if ours and figure([*ours, *peers], figure_path, draw) is not None:
         lines += ["", "![The Fetch runs over env steps](figures/fetch.png)"]
     return lines
-
-
-def shortfalls(ours) -> list[str]:
-    """One sentence per task with a published figure: whether any of our cells reaches the
-    level in fewer env steps than the fastest published plain DDPG+HER (`PLAIN`), or where
-    it stands."""
-    out = []
-    for task, env in ENVS.items():
-        figures = [
-            f for f in published() if f["env"].startswith(env + "-") and f["method"] == PLAIN
-        ]
-        mine = [(name, per, s) for name, t, per, s in ours if t == task]
-        if not figures or not mine:
-            continue
-        best = min(figures, key=lambda f: f["env_steps"])
-        reached = [
-            (stats.first_reaching(s.mean(axis=0), LEVEL), per, name) for name, per, s in mine
-        ]
-        reached = [(hit * per, name) for hit, per, name in reached if hit is not None]
-        theirs = f"{best['method']} ({best['source']}) reaches it at {best['env_steps']:,}"
-        if reached:
-            # A headline on fresh seeds is the figure we stand by, even where a tuning cell
-            # reached the level sooner.
-            steps, name = min([r for r in reached if _fresh(r[1])] or reached)
-            verdict = "ahead of" if steps < best["env_steps"] else "behind"
-            total = steps + library_cost(name)
-            counted = "ahead of" if total < best["env_steps"] else "behind"
-            with_build = (
-                f" Counting the library's build, {total:,} env steps: {counted} it."
-                if total != steps
-                else ""
-            )
-            out.append(
-                f"On {env}, {name} reaches {LEVEL} at {steps:,} env steps; {theirs}: "
-                f"we are {verdict} the published DDPG+HER.{_caveats(name)}{with_build}"
-            )
-            continue
-        name, per, s = max(mine, key=lambda m: stats.summarize(m[2]).last[0])
-        out.append(
-            f"On {env}, none of our cells reaches {LEVEL} (the best last-5 mean: "
-            f"{stats.summarize(s).last[0]:.2f}, {name}, after {s.shape[1] * per:,} env "
-            f"steps); {theirs}: we fall short of the published DDPG+HER."
-            + (fetch_budget.sentence(name, best) or fetch_budget.best_plain(mine, best))
-        )
-    return ["", *out] if out else []
-
-
-def _fresh(name: str) -> bool:
-    """The cell labelled `name` is a headline's: it ran on seeds no tuning run used."""
-    name = name.split(":")[0]
-    return name in names() and raw(name).get("role") == "headline"
-
-
-def _caveats(name: str) -> str:
-    """What a reader must know of experiment `name`'s cell beside a published figure: the
-    seeds it ran on if they were tuning seeds, and the skill library's one-time cost if a
-    library method ran (`name`: a cell's label, its experiment before any colon)."""
-    name = name.split(":")[0]
-    if name not in names():
-        return ""
-    exp = load_experiment(name)
-    out = ""
-    if exp.group == "tuning":
-        out += (
-            f" That cell ran on the tuning seeds {exp.seed}-{exp.seed + exp.seeds - 1} "
-            "(no fresh-seed headline reaches the level yet)."
-        )
-    elif _fresh(name):
-        out += f" That cell is a headline's: seeds {exp.seed}-{exp.seed + exp.seeds - 1}, fresh."
-    cost = library_cost(name)
-    if cost:
-        out += (
-            f" It uses the skill library {library_used(name)[0]} of Fetch, whose build "
-            f"took {cost:,} env steps once, not counted in its curve."
-        )
-    return out
-
-
-def library_cost(name: str) -> int:
-    """Env steps the build of the skill library took that the cell labelled `name` used (0:
-    it uses none, or none is built)."""
-    used = library_used(name)
-    if used is None or not used[1].exists():
-        return 0
-    return build_env_steps(json.loads(used[1].read_text()))
-
-
-def library_used(name: str) -> tuple[str, Path] | None:
-    """(library, its manifest's path) that the cells of the experiment of the cell labelled
-    `name` search with (None: no library method, or not an experiment)."""
-    from mjx_skills.methods import get
-
-    name = name.split(":")[0]
-    if name not in names():
-        return None
-    for cell in load_experiment(name).cells():
-        group = get(cell.method).library_group
-        if group is not None:
-            options = cells.run_config(cell.run_args(out="", progress=False))["options"][group]
-            return options["library"], in_checkout(options["library_dir"]) / "manifest.json"
-    return None
 
 
 def figure(ours, out: Path, draw: bool = True) -> Path | None:

@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 from mjx_skills.sweeps.cell import Cell
-from study import fetch, fetch_library
+from study import fetch, fetch_claims, fetch_library
 
 
 def _row(seed, curve, net=256, steps=2400):
@@ -73,12 +73,16 @@ def test_the_fetch_librarys_table_counts_the_env_steps_its_build_took(tmp_path):
 
 
 def test_a_cell_beside_a_published_figure_says_its_seeds_and_its_librarys_cost():
-    sl = fetch._caveats("fetch_pick_and_place_sl")
+    sl = fetch_claims._caveats("fetch_pick_and_place_sl")
     assert "ran on the tuning seeds 0-2" in sl
     assert "skill library SL1_fetch of Fetch, whose build took" in sl
-    flat = fetch._caveats("fetch_push_her")
+    flat = fetch_claims._caveats("fetch_push_her")
     assert "tuning seeds 0-2" in flat and "library" not in flat
-    assert fetch._caveats("not_an_experiment") == ""
+    assert fetch_claims._caveats("not_an_experiment") == ""
+    assert "not a flat actor" not in sl + flat  # DDPG+HER+SL and DDPG+HER evaluate the actor
+    fast = fetch_claims._caveats("fetch_push_fast")  # the critic picks among skill actions
+    assert "Its evaluated policy is not a flat actor as DDPG+HER's" in fast
+    assert "not a flat actor" in fetch_claims._caveats("fetch_pick_and_place_pas: PAS")
 
 
 def test_the_wall_clock_of_a_resumed_run_adds_its_stretches():
@@ -118,13 +122,15 @@ def test_beside_a_published_figure_the_fresh_seed_headline_is_the_figure_we_stan
         ("fetch_pick_and_place_sl", "fetch_pick_and_place", 800, fast),
         ("headline_fetch_pick_and_place", "fetch_pick_and_place", 800, slow),
     ]
-    (line,) = [x for x in fetch.shortfalls(ours) if x.startswith("On FetchPickAndPlace")]
+    (line,) = [x for x in fetch_claims.shortfalls(ours) if x.startswith("On FetchPickAndPlace")]
     assert line.startswith(
         "On FetchPickAndPlace, headline_fetch_pick_and_place reaches 0.9 at 124,000"
     )
     assert "seeds 100-109, fresh" in line and "tuning" not in line
-    assert f"Counting the library's build, {124_000 + fetch.library_cost(ours[1][0]):,}" in line
-    (line,) = [x for x in fetch.shortfalls(ours[:1]) if x.startswith("On FetchPickAndPlace")]
+    assert (
+        f"Counting the library's build, {124_000 + fetch_claims.library_cost(ours[1][0]):,}" in line
+    )
+    (line,) = [x for x in fetch_claims.shortfalls(ours[:1]) if x.startswith("On FetchPickAndPlace")]
     assert "reaches 0.9 at 44,000" in line and "ran on the tuning seeds 0-2" in line
 
 
@@ -149,10 +155,13 @@ def test_a_rank_holds_only_when_the_upper_interval_clears_the_lower():
 def test_a_cell_is_charged_the_build_of_the_library_it_searches_with(tmp_path, monkeypatch):
     """FetchPush's cells search with the push library, not SL1_fetch: its manifest is the one
     read for their build cost, and its table joins the section once it is built."""
-    pnp, push = fetch.library_used("fetch_pick_and_place_sl"), fetch.library_used("fetch_push_sl")
+    pnp, push = (
+        fetch_claims.library_used("fetch_pick_and_place_sl"),
+        fetch_claims.library_used("fetch_push_sl"),
+    )
     for (name, path), library in ((pnp, "SL1_fetch"), (push, "SL_fetch_push")):
         assert name == library and path.resolve() == fetch_library.manifests()[library]
-    assert fetch.library_used("fetch_push_her") is None
+    assert fetch_claims.library_used("fetch_push_her") is None
     built = tmp_path / "manifest.json"
     manifest = {
         "commit": "0123456789",
@@ -168,8 +177,8 @@ def test_a_cell_is_charged_the_build_of_the_library_it_searches_with(tmp_path, m
         "env_steps": {"train": {"fetch_push_block": 800}, "collect": {"fetch_push_block": 1000}},
     }
     built.write_text(json.dumps(manifest))
-    monkeypatch.setattr(fetch, "library_used", lambda name: ("SL_fetch_push", built))
-    assert fetch.library_cost("fetch_push_sl") == 1800
+    monkeypatch.setattr(fetch_claims, "library_used", lambda name: ("SL_fetch_push", built))
+    assert fetch_claims.library_cost("fetch_push_sl") == 1800
     missing = {"SL1_fetch": tmp_path / "no.json", "SL_fetch_push": built}
     monkeypatch.setattr(fetch_library, "manifests", lambda: missing)
     lines = fetch_library.library_tables()

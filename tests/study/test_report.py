@@ -329,12 +329,12 @@ def test_the_fetch_section_sets_our_cells_beside_the_published_figures():
     """Env steps to 0.9 from a cell's curve, 'never (budget N)' when it never gets there, and
     a verdict against the fastest published plain DDPG+HER of that env (mrl's FetchPush
     figure: 350,000 env steps)."""
-    from study import fetch
+    from study import fetch, fetch_claims
 
     published = min(
         f["env_steps"]
-        for f in fetch.published()
-        if f["env"] == "FetchPush-v1" and f["method"] == fetch.PLAIN
+        for f in fetch_claims.published()
+        if f["env"] == "FetchPush-v1" and f["method"] == fetch_claims.PLAIN
     )
     late = np.zeros((3, 400))
     late[:, 300:] = 1.0  # the rolling mean reaches 0.9 at epoch 305: 244,000 env steps
@@ -343,12 +343,12 @@ def test_the_fetch_section_sets_our_cells_beside_the_published_figures():
         fetch._reach(late, 800) == "244,000"
         and fetch._reach(never, 800) == "never (budget 320,000)"
     )
-    (ahead,) = fetch.shortfalls([("late", "fetch_push", 800, late)])[1:]
+    (ahead,) = fetch_claims.shortfalls([("late", "fetch_push", 800, late)])[1:]
     assert "late reaches 0.9 at 244,000 env steps; DDPG w/ HER" in ahead
     assert f"at {published:,}: we are ahead of the published DDPG+HER" in ahead
-    (short,) = fetch.shortfalls([("never", "fetch_push", 800, never)])[1:]
+    (short,) = fetch_claims.shortfalls([("never", "fetch_push", 800, never)])[1:]
     assert "best last-5 mean: 0.20, never, after 320,000 env steps" in short
     assert short.endswith("we fall short of the published DDPG+HER.")
     stored = {name for name, *_ in fetch.stored_cells()}
     assert {"fetch_reach", "fetch_push_her"} <= stored
-    assert fetch.shortfalls([("reach", "fetch_reach", 800, late)]) == []  # nothing published
+    assert fetch_claims.shortfalls([("reach", "fetch_reach", 800, late)]) == []  # nothing published
