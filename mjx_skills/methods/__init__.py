@@ -13,7 +13,7 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any
 
-from mjx_skills.config import DDPGConfig, EnvConfig, PASConfig, SearchConfig
+from mjx_skills.config import DDPGConfig, EnvConfig, PASConfig, SearchConfig, TrainConfig
 from mjx_skills.core.learner import Learner
 from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.methods.ddpg_her_sl import make_ddpg_her_sl
@@ -172,8 +172,6 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
 
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
     """ValueError naming any option `method` does not read that differs from its default."""
-    from mjx_skills.config import TrainConfig
-
     spec = get(method)
     groups = {"train": (train, TrainConfig())} | {
         g: (options[g], spec.options[g]) for g in options if g in spec.options
@@ -336,11 +334,9 @@ def preset_options(method: str, preset: str = "default") -> dict[str, Any]:
     }
 
 
-def preset_train(method: str, preset: str = "default") -> Any:
+def preset_train(method: str, preset: str = "default") -> TrainConfig:
     """`TrainConfig()` with the 'train' fields of `preset` for `method` applied (the command's
     and an experiment's [train] apply over it). ValueError on an unknown method or preset."""
-    from mjx_skills.config import TrainConfig
-
     preset_options(method, preset)  # names the valid methods and presets
     return dataclasses.replace(TrainConfig(), **PRESETS[preset].get(method, {}).get("train", {}))
 

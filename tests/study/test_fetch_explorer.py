@@ -60,3 +60,17 @@ def test_the_sentence_names_the_tasks_fast_experiment_and_says_what_it_showed():
         assert f"DDPG+HER+SL+Fast ({fast}, seeds 0-2), succeeds on 0.95 over epochs" in said
         assert f"{target - 4}-{target} and reaches 0.9 at epoch 5." in said
         assert "not run yet" not in said
+
+
+def test_a_fresh_seed_fast_cell_is_the_one_said_before_a_tuning_one():
+    (cell,) = load_experiment("headline_fetch_push").cells()
+    (tuning,) = load_experiment("fetch_push_fast").cells()
+    (fresh,) = load_experiment("headline_fetch_push_fast").cells()
+    low = [dict(r, eval_success=0.2) for r in _rows(62)]
+    found = [
+        ("headline_fetch_push", cell, _rows(150)),
+        ("fetch_push_fast", tuning, _rows(62)),
+        ("headline_fetch_push_fast", fresh, low),
+    ]
+    (said,) = fetch_explorer.paragraph(found)[1:]
+    assert "(headline_fetch_push_fast, seeds 100-109), succeeds on 0.20" in said
