@@ -18,7 +18,8 @@ updates) costs what its stored cells took per epoch (`experiments/results/cells`
 at a time on two cores), scaled linearly to the cell's seeds (and episode length, from
 another task's cell).
 Cells are then given to `jobs` workers longest first; the estimate is the last worker's end.
-Budgets other than the default (envs, cycles, updates, evaluation episodes) are not modelled.
+Budgets other than the default (envs, cycles, updates, evaluation episodes, batch size,
+network widths) are not modelled: the estimate names such a cell's fields (`unmodelled`).
 """
 
 from __future__ import annotations
@@ -36,6 +37,12 @@ RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "epoc
 BENCHMARKED = ("ddpg_her", "pas", "mpas", "ddpg_her_sl", "ddpg_her_sl_bc")
 """Methods whose epochs `benchmarks/epoch_cost.py` measures (BC's extra loss term is noise
 beside DDPG+HER+SL's epoch)."""
+BUDGET = {
+    "train": ("envs", "cycles", "updates_per_cycle", "eval_episodes"),
+    "ddpg": ("batch_size", "hidden"),
+}
+"""A benchmarked method's fields that change what an epoch costs but that the model does not
+scale (`unmodelled`): the estimate names them rather than pass its figure off as theirs."""
 REFERENCE_LENGTH = 50
 """Episode length of pick_move, the task the epoch costs are measured on."""
 
@@ -158,6 +165,27 @@ def cell_seconds(cell: Cell, table: CostTable, store: Path = STORE) -> float:
     return table.compile_s(variant) + cell.epochs * table.epoch_s(variant, cell.seeds, length)
 
 
+def unmodelled(cell: Cell) -> list[str]:
+    """`BUDGET` fields of `cell` that differ from its method's defaults, as 'field value
+    (default d)', for a method whose epochs the benchmark measured at the defaults; [] for
+    one costed from its stored cells (they ran at the budgets they ran at)."""
+    from mjx_skills import methods
+    from mjx_skills.config import TrainConfig
+
+    if cell.method not in BENCHMARKED:
+        return []
+    args = cell.run_args(out="", progress=False)
+    given = {"train": args.train, **args.options}
+    default = {"train": TrainConfig(), **methods.get(cell.method).options}
+    return [
+        f"{field} {getattr(given[group], field)} (default {getattr(default[group], field)})"
+        for group, fields in BUDGET.items()
+        if group in given
+        for field in fields
+        if getattr(given[group], field) != getattr(default[group], field)
+    ]
+
+
 def makespan(seconds: list[float], jobs: int) -> float:
     """Wall time of independent jobs on `jobs` workers, longest first to the first free."""
     free = [0.0] * max(jobs, 1)
@@ -195,6 +223,7 @@ def estimate(
     todo = [c for c in exp.cells() if c not in done]
     jobs = max(1, min(jobs, len(todo)))  # as the sweep: no more workers than cells to run
     cells: dict[str, float] = {}
+    odd: dict[str, list[str]] = {}
     if todo:
         rows = [r for r in rows if "variant" in r] if rows is not None else load_rows()
         want = max(1, (cores or usable_cores()) // jobs)
@@ -202,6 +231,7 @@ def estimate(
         cores = min({r["cores"] for r in rows} or {want}, key=lambda c: (abs(c - want), c))
         table = CostTable(tuple(rows), cores)
         cells = {c.name: cell_seconds(c, table, store) for c in todo}
+        odd = {c.name: fields for c in todo if (fields := unmodelled(c))}
     return {
         "experiment": exp.name,
         "jobs": jobs,
@@ -210,6 +240,7 @@ def estimate(
         "stored": [c.name for c in done],
         "serial_s": round(sum(cells.values())),
         "wall_s": round(makespan(list(cells.values()), jobs)),
+        "unmodelled": odd,
     }
 
 
@@ -218,7 +249,16 @@ def report(exp: Experiment, jobs: int, store: Path = STORE) -> str:
     if exp.kind != "train":
         raise SystemExit(f"error: --estimate models training experiments; {exp.name} is {exp.kind}")
     est = estimate(exp, jobs, store=store)
-    lines = [f"{name:50s} {s / 60:6.1f} min" for name, s in est["cells"].items()]
+    odd = est["unmodelled"]
+    lines = [
+        f"{name:50s} {s / 60:6.1f} min"
+        + (
+            f"  (at the default budget; not modelled: {', '.join(odd[name])})"
+            if name in odd
+            else ""
+        )
+        for name, s in est["cells"].items()
+    ]
     lines += [f"{name:50s} stored (taken from {store})" for name in est["stored"]]
     total = len(est["cells"]) + len(est["stored"])
     head = f"{exp.name}: {total} cells, {len(est['stored'])} stored; "
@@ -226,6 +266,7 @@ def report(exp: Experiment, jobs: int, store: Path = STORE) -> str:
         lines.append(
             f"{head}{est['wall_s'] / 3600:.2f} h with --jobs {est['jobs']} "
             f"({est['cores_per_job']} core(s) each; {est['serial_s'] / 3600:.2f} h of cell time)"
+            + (f"; {len(odd)} cell(s) at a budget the estimate does not model" if odd else "")
         )
     else:
         lines.append(f"{head}0.00 h: nothing to train")

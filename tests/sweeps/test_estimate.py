@@ -107,3 +107,25 @@ def test_the_estimate_says_the_jobs_it_models():
     text = cost.report(adhoc("one", ("transit",), ("ddpg_her",)), jobs=4)
     summary, est = text.splitlines()[-2], json.loads(text.splitlines()[-1])
     assert est["jobs"] == 1 and f"--jobs {est['jobs']} (" in summary, summary
+
+
+def test_a_cell_at_a_budget_the_benchmark_did_not_measure_is_named_with_its_fields():
+    """The epoch costs were measured at the default budget: a cell with 4x the updates and a
+    bigger batch gets the same figure, so the estimate names those fields beside it."""
+    from mjx_skills.sweeps import cost
+
+    rows = [
+        {"variant": "ddpg_her", "seeds": s, "cores": 1, "epoch_s": s, "compile_s": 1.0}
+        for s in (1, 3)
+    ]
+    plain = Experiment(name="t", description="", tasks=("pick_move",), methods=("ddpg_her",))
+    big = dataclasses.replace(
+        plain,
+        train={"updates_per_cycle": 400},
+        options={"ddpg_her": {"ddpg": {"batch_size": 2000}}},
+    )
+    assert cost.estimate(plain, jobs=1, rows=rows)["unmodelled"] == {}
+    est = cost.estimate(big, jobs=1, rows=rows)
+    ((name, fields),) = est["unmodelled"].items()
+    assert fields == ["updates_per_cycle 400 (default 100)", "batch_size 2000 (default 128)"]
+    assert est["cells"][name] == cost.estimate(plain, jobs=1, rows=rows)["serial_s"]
