@@ -7,7 +7,8 @@ TASK    ?= pick_move
 METHOD  ?=
 EPOCHS  ?= 100
 # A Fetch task trains with the skills built on Fetch (`--preset fetch`, their library);
-# FetchPush, whose fingers are blocked, with the push library (`--preset fetch_push`).
+# FetchPush, whose fingers are blocked, with the push library and the learner tuned there
+# (`--preset fetch_push`).
 FETCH   := $(filter fetch_%,$(TASK))
 PUSH    := $(filter fetch_push,$(TASK))
 ROBOT   ?= $(if $(FETCH),fetch,baxter)
