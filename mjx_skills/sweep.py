@@ -3,6 +3,7 @@
     python -m mjx_skills.sweep --experiment smoke
     python -m mjx_skills.sweep --experiment NAME --seeds 3 --epochs 50  # experiments/NAME.toml
     python -m mjx_skills.sweep --tasks pick_move take_out --methods pas mpas --seeds 3
+    python -m mjx_skills.sweep --tasks fetch_push --methods ddpg_her_sl --libraries SL_fetch_push --preset fetch_push
     python -m mjx_skills.sweep --experiment NAME --jobs 1             # one cell at a time
     python -m mjx_skills.sweep --experiment NAME --estimate           # wall time, no training
     python -m mjx_skills.sweep --experiment NAME --ray local          # cells as Ray tasks
@@ -166,6 +167,11 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--methods", nargs="+", help="ad-hoc grid: methods")
     p.add_argument("--libraries", nargs="+", help="ad-hoc grid: SL1 / SL2 / SL3 (library methods)")
     p.add_argument("--name", default="adhoc", help="ad-hoc grid: the results' name")
+    p.add_argument(
+        "--preset",
+        help="ad-hoc grid: the methods' option preset (default, thesis, fetch, fetch_push; "
+        "an experiment file states its own)",
+    )
     p.add_argument("--seeds", type=positive_int, help="seeds per cell (overrides the experiment's)")
     p.add_argument(
         "--epochs", type=positive_int, help="epochs per cell (overrides the experiment's)"
@@ -219,10 +225,15 @@ def main(argv: list[str] | None = None) -> None:
     try:
         if args.experiment and args.tasks:
             raise ValueError("give --experiment or --tasks/--methods, not both")
+        if args.experiment and args.preset:
+            raise ValueError("--preset is for an ad-hoc grid; an experiment file states its own")
         if args.experiment:
             exp = load_experiment(args.experiment)
         elif args.tasks and args.methods:
-            exp = adhoc(args.name, args.tasks, args.methods, args.libraries)
+            preset = "default" if args.preset is None else args.preset
+            exp = adhoc(
+                args.name, args.tasks, args.methods, args.libraries, preset, args.seeds, args.epochs
+            )
         else:
             raise ValueError("give --experiment NAME (see --list) or --tasks ... --methods ...")
         exp = exp.with_budget(seeds=args.seeds, epochs=args.epochs)

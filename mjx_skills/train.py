@@ -58,6 +58,8 @@ def _flag_value(argv: list[str], flag: str) -> tuple[str | None, list[str]]:
             continue
         if any(a == flag or a.startswith(flag + "=") for a in rest):
             raise SystemExit(f"error: {flag} given twice")
+        if not value:
+            raise SystemExit(f"error: {flag} needs a value")
         return value, rest
     return None, argv
 

@@ -308,8 +308,8 @@ PRESETS["fetch"] = _library_preset("SL1_fetch", FETCH_LIBRARY, FETCH_SEARCH)
 PRESETS["fetch_push"] = _library_preset("SL_fetch_push", FETCH_PUSH_LIBRARY, FETCH_PUSH_SEARCH)
 FETCH_PUSH_TRAIN = {"updates_per_cycle": 200}
 PRESETS["fetch_push"]["ddpg_her_sl"]["search"]["eps_decay_epochs"] = 60
-PRESETS["fetch_push"]["ddpg_her_sl"]["train"] = FETCH_PUSH_TRAIN
-PRESETS["fetch_push"]["ddpg_her"] = {"train": FETCH_PUSH_TRAIN}
+PRESETS["fetch_push"]["ddpg_her_sl"]["train"] = dict(FETCH_PUSH_TRAIN)
+PRESETS["fetch_push"]["ddpg_her"] = {"train": dict(FETCH_PUSH_TRAIN)}
 """Named option sets by method and group, applied over the defaults (explicit flags win);
 the group 'train' sets `TrainConfig` fields (`preset_train`).
 'fetch': the library methods with the skills built on Fetch, for the Fetch tasks;

@@ -18,8 +18,8 @@ updates) costs what its stored cells took per epoch (`experiments/results/cells`
 at a time on two cores), scaled linearly to the cell's seeds (and episode length, from
 another task's cell).
 Cells are then given to `jobs` workers longest first; the estimate is the last worker's end.
-Budgets other than the default (envs, cycles, updates, evaluation episodes, batch size,
-network widths) are not modelled: the estimate names such a cell's fields (`unmodelled`).
+Budgets other than the default (envs, cycles, updates, evaluation episodes, episode
+length, batch size, network widths, twin critics) are not modelled: the estimate names such a cell's fields (`unmodelled`).
 """
 
 from __future__ import annotations
@@ -39,7 +39,9 @@ BENCHMARKED = ("ddpg_her", "pas", "mpas", "ddpg_her_sl", "ddpg_her_sl_bc")
 beside DDPG+HER+SL's epoch)."""
 BUDGET = {
     "train": ("envs", "cycles", "updates_per_cycle", "eval_episodes"),
-    "ddpg": ("batch_size", "hidden"),
+    "env": ("episode_length",),
+    "ddpg": ("batch_size", "hidden", "critics"),
+    "pas": ("updates_per_cycle",),
 }
 """A benchmarked method's fields that change what an epoch costs but that the model does not
 scale (`unmodelled`): the estimate names them rather than pass its figure off as theirs."""
@@ -166,19 +168,24 @@ def cell_seconds(cell: Cell, table: CostTable, store: Path = STORE) -> float:
 
 
 def unmodelled(cell: Cell) -> list[str]:
-    """`BUDGET` fields of `cell` that differ from its method's defaults, as 'field value
+    """`BUDGET` fields of `cell` that differ from its method's defaults, as '--flag value
     (default d)', for a method whose epochs the benchmark measured at the defaults; [] for
     one costed from its stored cells (they ran at the budgets they ran at)."""
     from mjx_skills import methods
-    from mjx_skills.config import TrainConfig
+    from mjx_skills.config import EnvConfig, TrainConfig
 
     if cell.method not in BENCHMARKED:
         return []
     args = cell.run_args(out="", progress=False)
-    given = {"train": args.train, **args.options}
-    default = {"train": TrainConfig(), **methods.get(cell.method).options}
+    given = {"train": args.train, "env": args.env, **args.options}
+    default = {"train": TrainConfig(), "env": EnvConfig(), **methods.get(cell.method).options}
+
+    def flag(group: str, field: str) -> str:
+        return ("--" if group == "train" else f"--{group}.") + field.replace("_", "-")
+
     return [
-        f"{field} {getattr(given[group], field)} (default {getattr(default[group], field)})"
+        f"{flag(group, field)} {getattr(given[group], field)} "
+        f"(default {getattr(default[group], field)})"
         for group, fields in BUDGET.items()
         if group in given
         for field in fields

@@ -315,11 +315,25 @@ def load_experiment(name: str) -> Experiment:
     return Experiment(name=name, **read(name, known))
 
 
-def adhoc(name: str, tasks, methods, libraries=None) -> Experiment:
+def adhoc(
+    name: str,
+    tasks,
+    methods,
+    libraries=None,
+    preset: str = "default",
+    seeds: int | None = None,
+    epochs: int | None = None,
+) -> Experiment:
+    """The grid `tasks` x `methods` (x `libraries`, default SL1) with option preset `preset`,
+    at `seeds` and `epochs` where given (else the Experiment's defaults), checked as built
+    (ValueError naming the cell at the budget asked for)."""
+    budget = {k: v for k, v in {"seeds": seeds, "epochs": epochs}.items() if v is not None}
     return Experiment(
         name=name,
         description="ad-hoc grid",
         tasks=tuple(tasks),
         methods=tuple(methods),
         libraries=tuple(libraries or ("SL1",)),
+        preset=preset,
+        **budget,
     )

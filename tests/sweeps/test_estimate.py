@@ -127,5 +127,47 @@ def test_a_cell_at_a_budget_the_benchmark_did_not_measure_is_named_with_its_fiel
     assert cost.estimate(plain, jobs=1, rows=rows)["unmodelled"] == {}
     est = cost.estimate(big, jobs=1, rows=rows)
     ((name, fields),) = est["unmodelled"].items()
-    assert fields == ["updates_per_cycle 400 (default 100)", "batch_size 2000 (default 128)"]
+    assert fields == [
+        "--updates-per-cycle 400 (default 100)",
+        "--ddpg.batch-size 2000 (default 128)",
+    ]
     assert est["cells"][name] == cost.estimate(plain, jobs=1, rows=rows)["serial_s"]
+
+
+def test_pas_s_own_update_count_and_the_episode_length_are_named_too():
+    """PAS reads --pas.updates-per-cycle, not the trainer's; a longer episode costs more
+    steps than the task's default that the model reads."""
+    from mjx_skills.sweeps import cost
+    from mjx_skills.sweeps.cell import Cell
+
+    pas = Cell(
+        task="pick_move",
+        method="pas",
+        library="SL1",
+        seeds=1,
+        epochs=1,
+        options=(("pas", (("updates_per_cycle", 400),)),),
+        env=(("episode_length", 500),),
+    )
+    assert cost.unmodelled(pas) == [
+        "--env.episode-length 500 (default 0)",
+        "--pas.updates-per-cycle 400 (default 40)",
+    ]
+
+
+def test_an_adhoc_grid_takes_a_preset_and_is_checked_at_the_budget_asked_for(capsys):
+    """`sweep --tasks fetch_push ... --preset fetch_push` points the library method at the
+    push library (without it, the Baxter library is refused, naming the cell as asked: s2-e3);
+    an experiment file states its own preset."""
+    from mjx_skills import sweep
+
+    grid = ["--tasks", "fetch_push", "--methods", "ddpg_her_sl", "--libraries", "SL_fetch_push"]
+    budget = ["--seeds", "2", "--epochs", "3", "--estimate"]
+    sweep.main([*grid, "--preset", "fetch_push", *budget])
+    out = capsys.readouterr().out
+    assert "fetch_push-ddpg_her_sl-SL_fetch_push-fetch_push-s2-e3" in out
+    assert "--updates-per-cycle 200 (default 100)" in out  # the preset's tuned learner
+    with pytest.raises(SystemExit, match="cell fetch_push-ddpg_her_sl-SL_fetch_push-s2-e3: the"):
+        sweep.main([*grid, *budget])
+    with pytest.raises(SystemExit, match="an experiment file states its own"):
+        sweep.main(["--experiment", "fetch_her", "--preset", "fetch", "--estimate"])

@@ -261,6 +261,8 @@ def test_make_train_gives_a_task_the_skills_of_its_robot(task, library):
     assert args.train.epochs == parse(["--task", task]).train.epochs  # one default budget
     with pytest.raises(SystemExit, match="--preset given twice"):
         parse([*argv, "--preset", "thesis", "--preset=thesis"])
+    with pytest.raises(SystemExit, match="--preset needs a value"):  # not the default preset
+        parse(["--task", task, "--preset="])
 
 
 def test_the_help_lists_the_tasks_the_early_flags_and_one_example_a_line(capsys):
