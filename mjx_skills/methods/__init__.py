@@ -170,6 +170,12 @@ def check_library_robot(method: str, task: str, options: dict[str, Any] | None =
     check_robot(method, group, chosen, task, set(PRESETS), flat)
 
 
+def option_flag(group: str, field: str) -> str:
+    """The command-line flag of option `field` of `group` ('train': un-prefixed), e.g.
+    ('ddpg', 'batch_size') -> '--ddpg.batch-size'."""
+    return ("--" if group == "train" else f"--{group}.") + field.replace("_", "-")
+
+
 def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
     """ValueError naming any option `method` does not read that differs from its default."""
     spec = get(method)
@@ -181,7 +187,7 @@ def check_read(method: str, train: Any, options: dict[str, Any]) -> None:
         group, field = path.split(".")
         given, default = groups[group]
         if getattr(given, field) != getattr(default, field):
-            flag = ("--" if group == "train" else f"--{group}.") + field.replace("_", "-")
+            flag = option_flag(group, field)
             raise ValueError(
                 f"{method} does not read {flag} ({why}); "
                 f"leave {flag} at its default {getattr(default, field)!r}"

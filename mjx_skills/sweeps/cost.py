@@ -179,12 +179,8 @@ def unmodelled(cell: Cell) -> list[str]:
     args = cell.run_args(out="", progress=False)
     given = {"train": args.train, "env": args.env, **args.options}
     default = {"train": TrainConfig(), "env": EnvConfig(), **methods.get(cell.method).options}
-
-    def flag(group: str, field: str) -> str:
-        return ("--" if group == "train" else f"--{group}.") + field.replace("_", "-")
-
     return [
-        f"{flag(group, field)} {getattr(given[group], field)} "
+        f"{methods.option_flag(group, field)} {getattr(given[group], field)} "
         f"(default {getattr(default[group], field)})"
         for group, fields in BUDGET.items()
         if group in given
