@@ -7,26 +7,35 @@ from __future__ import annotations
 
 from mjx_skills.analysis import stats
 from mjx_skills.sweeps.experiment_file import names, raw
+from mjx_skills.sweeps.experiments import load_experiment
 from mjx_skills.sweeps.seeds import describe, seed_range
 from study.headlines import experiments
 
 
 def fast_sentence(task: str, target: int, level: float, found) -> str:
     """What DDPG+HER+SL+Fast (a learner that takes more from each episode) showed on `task`:
-    its stored cell's (a fresh-seed one if there is one) 5-epoch mean at the target's epoch and when it reaches `level`; or the
+    its stored cell's (a fresh-seed one if there is one; never a matched baseline's) 5-epoch
+    mean at the target's epoch (at its last epoch if it stops before) and when it reaches
+    `level`; or the
     experiment that measures it while none is stored; '' if no experiment runs it."""
-    runs = [run for run in found if _is_fast(run[1].method, run[1].task, task)]
+    runs = [
+        run
+        for run in found
+        if _is_fast(run[1].method, run[1].task, task)
+        and load_experiment(run[0]).group != "baseline"  # a matched baseline has no library
+    ]
     if runs:  # a headline's cell (fresh seeds) before a tuning cell
         label, cell, rows = min(runs, key=lambda run: run[1].seed == 0)
         evals = stats.scores_from_rows(rows).mean(axis=0)
-        window = slice(max(0, target - stats.WINDOW), target)
+        end = min(target, len(evals))  # a cell shorter than the target: its last epochs
+        window = slice(max(0, end - stats.WINDOW), end)
         hit = stats.first_reaching(evals, level)
         reached = f"reaches {level} at epoch {hit}" if hit else f"never reaches {level}"
         seeds = describe(seed_range(cell.seed, cell.seeds))
         return (
             f" A learner that takes more from each episode, DDPG+HER+SL+Fast ({label}, seeds "
             f"{seeds}), succeeds on {evals[window].mean():.2f} over epochs "
-            f"{window.start + 1}-{target} and {reached}."
+            f"{window.start + 1}-{end} and {reached}."
         )
     files = [n for n in names() if _is_fast(*_method_task(raw(n)), task)]
     if not files:

@@ -74,3 +74,22 @@ def test_a_fresh_seed_fast_cell_is_the_one_said_before_a_tuning_one():
     ]
     (said,) = fetch_explorer.paragraph(found)[1:]
     assert "(headline_fetch_push_fast, seeds 100-109), succeeds on 0.20" in said
+
+
+def test_a_fast_cell_shorter_than_the_target_says_its_last_epochs_and_no_baseline_is_read():
+    """The PickAndPlace Fast headline runs 70 epochs against the DDPG+HER+SL headline's
+    target at epoch 125 (the report once said 'succeeds on nan over epochs 121-125'), and its
+    matched baseline (the same method, no library) is not the Fast learner's result."""
+    (cell,) = load_experiment(HEADLINE).cells()
+    (fresh,) = load_experiment("headline_fetch_pick_and_place_fast").cells()
+    (base,) = load_experiment("headline_fetch_pick_and_place_fast_no_library").cells()
+    high = [dict(r, eval_success=0.95) for r in _rows(70)]
+    low = [dict(r, eval_success=0.05) for r in _rows(70)]
+    found = [
+        (HEADLINE, cell, _rows(150)),
+        ("headline_fetch_pick_and_place_fast_no_library", base, low),
+        ("headline_fetch_pick_and_place_fast", fresh, high),
+    ]
+    (said,) = fetch_explorer.paragraph(found)[1:]
+    assert "(headline_fetch_pick_and_place_fast, seeds 100-104), succeeds on 0.95" in said
+    assert "over epochs 66-70 and reaches 0.9 at epoch 5." in said
