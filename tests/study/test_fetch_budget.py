@@ -28,11 +28,40 @@ def test_the_sentence_sets_both_budgets_side_by_side():
     assert fetch_budget.sentence("fetch_pick_and_place_sl", MRL) == ""
 
 
-def test_where_a_library_cell_leads_the_best_ddpg_her_cell_is_set_beside_the_published():
+FIGURE = {**MRL, "method": "DDPG w/ HER", "env_steps": 350_000}
+
+
+def test_the_reproduction_lists_the_ddpg_her_cells_best_first_with_a_verdict():
     low, high = np.full((3, 10), 0.1), np.full((3, 10), 0.2)
-    mine = [("fetch_push_sl", 800, np.full((3, 10), 0.3)), ("fetch_her", 800, low)]
+    mine = [("fetch_push_sl", 800, np.ones((3, 10))), ("fetch_her", 800, low)]
     mine.append(("fetch_push_her", 800, high))
-    said = fetch_budget.best_plain(mine, MRL)
-    assert said.startswith(" Our best DDPG+HER cell there, fetch_push_her, ends at a last-5")
-    assert "0.20 after 8,000 env steps" in said and "samples 102 transitions" in said
-    assert fetch_budget.best_plain(mine[:1], MRL) == ""  # no DDPG+HER cell
+    said = fetch_budget.reproduction("FetchPush", mine, FIGURE, 0.9)
+    assert said.startswith("DDPG+HER's reproduction on FetchPush: DDPG w/ HER (mrl) reaches")
+    assert "sampling 1000 transitions per env step; ours: fetch_push_her (3 seeds, 102" in said
+    assert said.index("fetch_push_her (") < said.index("fetch_her (")  # best last-5 first
+    assert "fetch_push_sl" not in said  # a library cell is not DDPG+HER
+    assert "ends at a last-5 mean of 0.20 after 8,000 env steps (never 0.9)" in said
+    assert "Not tested yet: no cell ran to the published 350,000 env steps." in said
+    assert "No cell has run at the published learner's" in said
+    assert fetch_budget.reproduction("FetchPush", mine[:1], FIGURE, 0.9) == ""
+
+
+def test_a_cell_at_the_published_budget_that_falls_short_says_the_budget_does_not_explain_it():
+    short = np.full((1, 450), 0.5)
+    said = fetch_budget.reproduction("FetchPush", [("fetch_push_her_mrl", 800, short)], FIGURE, 0.9)
+    assert "fetch_push_her_mrl (1 seed, 1000 transitions per env step)" in said
+    assert "Not reproduced: fetch_push_her_mrl ran 360,000 env steps, past the published" in said
+    assert "fetch_push_her_mrl samples the published learner's transitions per env step" in said
+
+
+def test_reaching_the_level_within_the_allowed_multiple_reproduces_and_later_does_not():
+    def reaching_at(epoch):
+        s = np.zeros((3, 800))
+        s[:, epoch:] = 1.0
+        return [("fetch_push_her", 800, s)]
+
+    within = int(fetch_budget.REPRODUCED_WITHIN * 350_000 / 800) - 10
+    said = fetch_budget.reproduction("FetchPush", reaching_at(within), FIGURE, 0.9)
+    assert "Reproduced (within" in said and "does not explain" not in said
+    said = fetch_budget.reproduction("FetchPush", reaching_at(within + 20), FIGURE, 0.9)
+    assert "Not reproduced" in said

@@ -73,7 +73,7 @@ def test_a_fresh_seed_fast_cell_is_the_one_said_before_a_tuning_one():
         ("headline_fetch_push_fast", fresh, low),
     ]
     (said,) = fetch_explorer.paragraph(found)[1:]
-    assert "(headline_fetch_push_fast, seeds 100-109), succeeds on 0.20" in said
+    assert "(headline_fetch_push_fast, seeds 100-104), succeeds on 0.20" in said
 
 
 def test_a_fast_cell_shorter_than_the_target_says_its_last_epochs_and_no_baseline_is_read():
