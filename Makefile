@@ -29,8 +29,9 @@ $(STAMP): pyproject.toml
 	PYTHONWARNINGS=ignore $(BIN)/pip install --quiet -e '.[dev,notebook,ray]'
 	touch $(STAMP)
 
-# The CLI's default method (DDPG+HER+SL) unless METHOD=...; a library method builds the skill
-# library first if there is none (on Fetch for a Fetch task: make train TASK=fetch_pick_and_place).
+# The CLI's default method unless METHOD=... (DDPG+HER+SL; with a Fetch preset DDPG+HER+SL+Fast,
+# train.PRESET_METHODS); a library method builds the skill library first if there is none (on
+# Fetch for a Fetch task: make train TASK=fetch_pick_and_place).
 train: setup
 	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills ROBOT=$(ROBOT) SKILL_LIBRARY=$(SKILL_LIBRARY); fi
 	$(BIN)/python -m mjx_skills.train $(METHOD) $(if $(PRESET),--preset $(PRESET)) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)

@@ -239,12 +239,18 @@ def test_cli_forms_parse_to_the_same_run():
 
 
 @pytest.mark.parametrize(
-    ("task", "library"),
-    [("pick_move", "SL1"), ("fetch_pick_and_place", "SL1_fetch"), ("fetch_push", "SL_fetch_push")],
+    ("task", "library", "method"),
+    [
+        ("pick_move", "SL1", "ddpg_her_sl"),
+        ("fetch_pick_and_place", "SL1_fetch", "ddpg_her_sl_fast"),
+        ("fetch_push", "SL_fetch_push", "ddpg_her_sl_fast"),
+    ],
 )
-def test_make_train_gives_a_task_the_skills_of_its_robot(task, library):
+def test_make_train_gives_a_task_the_skills_of_its_robot(task, library, method):
     """`make train TASK=...` runs the CLI with the library of the task's robot (`--preset
-    fetch` on a Fetch task), and a preset given twice is refused, not silently dropped."""
+    fetch` on a Fetch task) and the best measured method there (a Fetch preset's:
+    DDPG+HER+SL+Fast; a method named wins), and a preset given twice is refused, not
+    silently dropped."""
     import shlex
     import subprocess
 
@@ -258,6 +264,8 @@ def test_make_train_gives_a_task_the_skills_of_its_robot(task, library):
     argv = shlex.split(line.partition("-m mjx_skills.train")[2])
     args = parse(argv)
     assert args.train.task == task and args.options["search"].library == library
+    assert args.method == method
+    assert parse(["ddpg_her_sl", *argv]).method == "ddpg_her_sl"
     assert args.train.epochs == parse(["--task", task]).train.epochs  # one default budget
     with pytest.raises(SystemExit, match="--preset given twice"):
         parse([*argv, "--preset", "thesis", "--preset=thesis"])
