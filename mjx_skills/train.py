@@ -37,9 +37,9 @@ there in fewer epochs, each about four times as long: docs/results.md)."""
 
 PRESET_METHODS = {"fetch": "ddpg_her_sl_fast", "fetch_push": "ddpg_her_sl_fast"}
 """The method a preset runs when none is named, where it is not `DEFAULT_METHOD`: on the
-Fetch tasks DDPG+HER+SL+Fast, of the methods run there the soonest to 0.9 in env steps
-(FetchPickAndPlace on the fresh seeds, FetchPush on the tuning seeds, where DDPG+HER+SL
-misses the level within its budget: docs/results.md, the Fetch section)."""
+Fetch tasks DDPG+HER+SL+Fast, of the methods run there the soonest to 0.9 in env steps on
+the fresh seeds (on FetchPush DDPG+HER+SL misses the level within its budget: docs/results.md,
+the Fetch section)."""
 
 ALIASES = {"--physics": "--env.physics"}
 """Short flags for the most used nested options."""
