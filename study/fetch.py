@@ -137,7 +137,8 @@ def peer_comparison(ours, peers) -> list[str]:
             continue
         at = "{:.2f} [{:.2f}, {:.2f}]"
         text = "; ".join(
-            f"{n} {at.format(*stats.summarize(s[:, :epochs]).last)} ({len(s)} seeds)"
+            f"{n} {at.format(*stats.summarize(s[:, :epochs]).last)} ({len(s)} seed"
+            + ("s)" if len(s) > 1 else ")")
             for n, s in mine
         )
         out.append(

@@ -116,9 +116,15 @@ def _verdict(plain: list, published: int, reached: bool, level: float) -> str:
     if reached:
         return f"Reproduced (within {REPRODUCED_WITHIN} times the published env steps)."
     name, budget = max(((m[0], m[2].shape[1] * m[1]) for m in plain), key=lambda m: m[1])
+    if budget >= REPRODUCED_WITHIN * published:
+        return (
+            f"Not reproduced: {name} ran {budget:,} env steps, {REPRODUCED_WITHIN} times "
+            f"the published {published:,} and more, without reaching {level}."
+        )
     if budget >= published:
         return (
-            f"Not reproduced: {name} ran {budget:,} env steps, past the published "
-            f"{published:,}, without reaching {level}."
+            f"Not reproduced yet: {name} ran {budget:,} env steps, past the published "
+            f"{published:,}, without reaching {level} (the allowance, "
+            f"{REPRODUCED_WITHIN} times, runs to {REPRODUCED_WITHIN * published:,.0f})."
         )
     return f"Not tested yet: no cell ran to the published {published:,} env steps."

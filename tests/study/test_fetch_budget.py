@@ -50,7 +50,8 @@ def test_a_cell_at_the_published_budget_that_falls_short_says_the_budget_does_no
     short = np.full((1, 450), 0.5)
     said = fetch_budget.reproduction("FetchPush", [("fetch_push_her_mrl", 800, short)], FIGURE, 0.9)
     assert "fetch_push_her_mrl (1 seed, 1000 transitions per env step)" in said
-    assert "Not reproduced: fetch_push_her_mrl ran 360,000 env steps, past the published" in said
+    assert "Not reproduced yet: fetch_push_her_mrl ran 360,000 env steps, past the" in said
+    assert "(the allowance, 1.5 times, runs to 525,000)" in said
     assert "fetch_push_her_mrl samples the published learner's transitions per env step" in said
 
 
@@ -65,3 +66,9 @@ def test_reaching_the_level_within_the_allowed_multiple_reproduces_and_later_doe
     assert "Reproduced (within" in said and "does not explain" not in said
     said = fetch_budget.reproduction("FetchPush", reaching_at(within + 20), FIGURE, 0.9)
     assert "Not reproduced" in said
+
+
+def test_a_cell_past_the_allowance_without_the_level_is_not_reproduced():
+    long = [("fetch_push_her_mrl", 800, np.full((1, 700), 0.5))]  # 560,000 > 1.5 x 350,000
+    said = fetch_budget.reproduction("FetchPush", long, FIGURE, 0.9)
+    assert "Not reproduced: fetch_push_her_mrl ran 560,000 env steps, 1.5 times" in said
