@@ -30,6 +30,11 @@ def reach(epoch: int | None) -> str:
     return "never" if epoch is None else str(epoch)
 
 
+def seeds(n: int) -> str:
+    """'1 seed', '3 seeds'."""
+    return f"{n} seed" + ("s" if n != 1 else "")
+
+
 MEASURED = [
     "seeds x epochs",
     "last 5 epochs [95 % CI]",

@@ -18,6 +18,7 @@ from mjx_skills.sweeps.cell import Cell
 from mjx_skills.sweeps.experiment_file import names
 from mjx_skills.sweeps.experiments import load_experiment
 from study import fetch_explorer, fetch_ranking
+from study.claims import ci, seeds
 from study.fetch_claims import ENVS, LEVEL, library_used, published, shortfalls
 from study.fetch_library import library_tables
 from study.sections import table
@@ -135,15 +136,12 @@ def peer_comparison(ours, peers) -> list[str]:
         mine = [(n, s) for n, t, p, s in ours if t == task and p == per and s.shape[1] >= epochs]
         if not mine:
             continue
-        at = "{:.2f} [{:.2f}, {:.2f}]"
         text = "; ".join(
-            f"{n} {at.format(*stats.summarize(s[:, :epochs]).last)} ({len(s)} seed"
-            + ("s)" if len(s) > 1 else ")")
-            for n, s in mine
+            f"{n} {ci(stats.summarize(s[:, :epochs]).last)} ({seeds(len(s))})" for n, s in mine
         )
         out.append(
             f"- {ENVS[task]}, the last 5 epochs up to {epochs * per:,} env steps: {label} "
-            f"{at.format(*stats.summarize(theirs).last)} ({len(theirs)} seeds); ours: {text}."
+            f"{ci(stats.summarize(theirs).last)} ({seeds(len(theirs))}); ours: {text}."
         )
     return out
 

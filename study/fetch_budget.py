@@ -11,6 +11,7 @@ from mjx_skills.analysis import stats
 from mjx_skills.envs.registry import ENVS
 from mjx_skills.sweeps.experiment_file import names
 from mjx_skills.sweeps.experiments import load_experiment
+from study.claims import seeds
 
 
 def ours(name: str) -> tuple[float, int, int, int] | None:
@@ -70,21 +71,21 @@ def reproduction(env: str, mine: list, figure: dict, level: float) -> str:
     last-5 mean first, with its gradient budget, where it ends and where it reaches `level`;
     the verdict; and, where a cell matched the published learner's budget and still falls
     short, that the budget alone does not explain the gap. '' if no DDPG+HER cell ran."""
-    plain = [(name, per, s, ours(name)) for name, per, s in mine if ours(name) is not None]
+    budgets = [(name, per, s, ours(name)) for name, per, s in mine]
+    plain = [(name, per, s, budget) for name, per, s, budget in budgets if budget is not None]
     if not plain:
         return ""
-    plain.sort(key=lambda m: -stats.summarize(m[2]).last[0])
+    last = {name: stats.summarize(s).last[0] for name, _, s, _ in plain}
+    plain.sort(key=lambda m: -last[m[0]])
     published, parts, reached = theirs(figure), [], False
     for name, per, s, (transitions, *_) in plain:
         hit = stats.first_reaching(s.mean(axis=0), level)
-        budget = s.shape[1] * per
         if hit is not None:
             reached |= hit * per <= REPRODUCED_WITHIN * figure["env_steps"]
         where = f"reaches {level} at {hit * per:,}" if hit is not None else f"never {level}"
-        seeds = f"{len(s)} seed" + ("s" if len(s) > 1 else "")
         parts.append(
-            f"{name} ({seeds}, {transitions:.0f} transitions per env step) ends at a last-5 "
-            f"mean of {stats.summarize(s).last[0]:.2f} after {budget:,} env steps ({where})"
+            f"{name} ({seeds(len(s))}, {transitions:.0f} transitions per env step) ends at a "
+            f"last-5 mean of {last[name]:.2f} after {s.shape[1] * per:,} env steps ({where})"
         )
     line = (
         f"DDPG+HER's reproduction on {env}: {figure['method']} ({figure['source']}) reaches "
@@ -111,8 +112,9 @@ def reproduction(env: str, mine: list, figure: dict, level: float) -> str:
 
 
 def _verdict(plain: list, published: int, reached: bool, level: float) -> str:
-    """Reproduced, not reproduced (a cell ran past the published env steps without reaching
-    `level`), or not tested (none ran that far)."""
+    """Reproduced (a cell reached `level` within the allowance); not reproduced (the longest
+    cell ran past the allowance without it); not reproduced yet (past the published env
+    steps, not past the allowance); or not tested yet (no cell ran to the published ones)."""
     if reached:
         return f"Reproduced (within {REPRODUCED_WITHIN} times the published env steps)."
     name, budget = max(((m[0], m[2].shape[1] * m[1]) for m in plain), key=lambda m: m[1])
