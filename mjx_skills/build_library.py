@@ -46,7 +46,7 @@ from mjx_skills.methods.ddpg_her import make_ddpg_her
 from mjx_skills.skills import fit, library, registry, work_runs
 from mjx_skills.skills.table import evaluate_models, write_table
 from mjx_skills.training.interrupt import INTERRUPTED
-from mjx_skills.training.metrics_log import logged_epochs, read_metrics
+from mjx_skills.training.metrics_log import logged_epochs, read_metrics, wall_seconds
 from mjx_skills.training.runner import RunArgs, train_and_keep
 
 
@@ -342,6 +342,9 @@ def build(args: SkillsArgs, work: str | Path | None = None) -> Path:
             "train": {n: _trained_env_steps(r) for n, r in runs.items()},
             "collect": {n: int(d["steps"].sum()) for n, d in data.items()},
         },
+        # every stretch of each skill's training run, reused from `work` or not (timings_s
+        # holds this process's seconds only)
+        "train_wall_s": {n: round(wall_seconds(read_metrics(r)), 1) for n, r in runs.items()},
     }
     return library.save(lib, out, manifest, made_by)
 

@@ -7,6 +7,7 @@ the published points marked and the peers' curves dashed."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ from mjx_skills.sweeps.experiment_file import names
 from mjx_skills.sweeps.experiments import load_experiment
 from study import fetch_explorer, fetch_ranking
 from study.claims import ci, seeds
-from study.fetch_claims import ENVS, LEVEL, library_used, published, shortfalls
+from study.fetch_claims import ENVS, LEVEL, fresh, library_used, published, shortfalls
 from study.fetch_library import library_tables
 from study.sections import table
 
@@ -72,7 +73,7 @@ def clock(rows: list[dict]) -> np.ndarray:
 
 
 def wall_table(found, peers) -> list[list[str]]:
-    """Rows (task, run, seeds at once, wall to LEVEL) for each of our cells (`_stored()`'s
+    """Rows (task, run, seeds at once, wall to LEVEL, with the library's build) for each of our cells (`_stored()`'s
     list) and each peer group (`_peer_groups()`'s) that reaches LEVEL: the seconds on this machine's 2 cores until the epoch at
     which the rolling mean first reaches it (ours: all the cell's seeds in one program;
     a peer: one seed at a time, the mean over its seeds)."""
@@ -81,16 +82,31 @@ def wall_table(found, peers) -> list[list[str]]:
         hit = stats.first_reaching(stats.scores_from_rows(metrics).mean(axis=0), LEVEL)
         if hit is not None:
             seeds = len({r["seed"] for r in metrics})
-            rows.append(
-                [ENVS[cell.task], name, f"{seeds} at once", _minutes(clock(metrics)[hit - 1])]
-            )
+            wall, build = clock(metrics)[hit - 1], build_seconds(name)
+            total = "-" if build is None else _minutes(wall + build)
+            rows.append([ENVS[cell.task], name, f"{seeds} at once", _minutes(wall), total])
     for label, task, _, s, walls in peers:
         hit = stats.first_reaching(s.mean(axis=0), LEVEL)
         if hit is not None:
-            rows.append(
-                [ENVS[task], label, "1 at a time", _minutes(float(np.mean(walls[:, hit - 1])))]
-            )
+            wall = _minutes(float(np.mean(walls[:, hit - 1])))
+            rows.append([ENVS[task], label, "1 at a time", wall, "-"])
     return rows
+
+
+def build_seconds(name: str) -> float | None:
+    """Wall seconds the build of the skill library that the cell labelled `name` searches
+    with took, from its manifest: each skill's training run, all its stretches
+    (`train_wall_s`, reused from the build's work directory or not), then data collection
+    and model fits (`timings_s`). None: no library, none built, or a manifest from before
+    `train_wall_s` was recorded (its timings_s count a reused skill's load only)."""
+    used = library_used(name)
+    if used is None or not used[1].exists():
+        return None
+    manifest = json.loads(used[1].read_text())
+    if "train_wall_s" not in manifest:
+        return None
+    timings = manifest["timings_s"]
+    return sum(manifest["train_wall_s"].values()) + timings["collect_s"] + timings["fit_s"]
 
 
 def _minutes(seconds: float) -> str:
@@ -127,21 +143,25 @@ def _seed(row: dict) -> int:
     return row["seed"]
 
 
-def peer_comparison(ours, peers) -> list[str]:
-    """For each peer group, its last-5 mean [95 % interval] at the end of its budget beside
-    each of our cells on that task over the same epochs (the same env steps)."""
+def peer_comparison(ours, peers, keep=fresh) -> list[str]:
+    """For each peer group, each of our cells on its task that `keep(name)` admits (by
+    default the fresh-seed cells: headlines and their baselines) beside it, both over the
+    last 5 epochs up to the shorter run's end (the same env steps): last-5 mean [95 %
+    interval]."""
     out = []
     for label, task, per, theirs in peers:
-        epochs = theirs.shape[1]
-        mine = [(n, s) for n, t, p, s in ours if t == task and p == per and s.shape[1] >= epochs]
+        mine = [(n, s) for n, t, p, s in ours if t == task and p == per and keep(n)]
         if not mine:
             continue
         text = "; ".join(
-            f"{n} {ci(stats.summarize(s[:, :epochs]).last)} ({seeds(len(s))})" for n, s in mine
+            f"{n} {ci(stats.summarize(s[:, :k]).last)} ({seeds(len(s))}) against "
+            f"{ci(stats.summarize(theirs[:, :k]).last)}, up to {k * per:,} env steps"
+            for n, s in mine
+            for k in [min(s.shape[1], theirs.shape[1])]
         )
         out.append(
-            f"- {ENVS[task]}, the last 5 epochs up to {epochs * per:,} env steps: {label} "
-            f"{ci(stats.summarize(theirs).last)} ({seeds(len(theirs))}); ours: {text}."
+            f"- {ENVS[task]}, {label} ({seeds(len(theirs))}) beside our fresh-seed cells, "
+            f"each pair over the last 5 epochs up to the shorter run's end: {text}."
         )
     return out
 
@@ -160,6 +180,12 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
     """The markdown (and, with `draw`, the figure at `figure_path`)."""
     found, groups = _stored(), _peer_groups()
     ours = stored_cells(found)
+    used, serves = [], {}
+    for name, task, *_ in ours:
+        if (library := library_used(name)) is not None:
+            used.append(library)
+            tasks = serves.setdefault(library[1].resolve(), [])
+            tasks += [ENVS[task]] if ENVS[task] not in tasks else []
     rows = [
         [
             ENVS[task],
@@ -180,7 +206,7 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
         for f in published()
     ]
     lines = [
-        *library_tables([used for name, *_ in ours if (used := library_used(name))]),
+        *library_tables(used, serves),
         "",
         "Our runs on gymnasium-robotics' Fetch tasks (the JAX envs, equal to the originals step "
         "for step): env steps until the 5-epoch rolling mean of the seeds' mean eval success "
@@ -198,10 +224,13 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
     if peers:
         lines += [
             "",
-            "What a user would run instead: Stable-Baselines3 with HER on gymnasium-robotics' "
-            "own envs (`benchmarks/peer_sb3_fetch.py`: rl-zoo3's FetchPush recipe with its "
-            "networks and batch sized down to these 2 cores; the settings are in each row "
-            "of `benchmarks/results/peer_sb3_fetch.jsonl`), evaluated as ours.",
+            "What a user would run instead: Stable-Baselines3's DDPG+HER on "
+            "gymnasium-robotics' own envs (`benchmarks/peer_sb3_fetch.py`; `--algo tqc` runs "
+            "TQC+HER), with the HER and learner settings of rl-zoo3's tuned FetchPush recipe "
+            "(a TQC recipe: gamma, learning rate, tau, 4 'future' goals, one gradient step "
+            "per env step) and its networks and batch sized down to these 2 cores; the "
+            "settings are in each row of `benchmarks/results/peer_sb3_fetch.jsonl`. "
+            "Evaluated as ours.",
             "",
             *table(
                 ["task", "run", "seeds", f"env steps to {LEVEL}", "last 5 epochs"],
@@ -219,9 +248,14 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
             "",
             f"Wall time to {LEVEL} on these 2 cores, compile included, for the runs above that "
             "reach it (ours train all of a cell's seeds in one program; SB3 trains one seed at "
-            "a time).",
+            "a time), and for a library method with its library's build added (the wall its "
+            "manifest records: skill training, data collection and model fits; a one-time "
+            "cost, as its env steps; '-' where a manifest predates that record).",
             "",
-            *table(["task", "run", "seeds", f"wall time to {LEVEL}"], walls),
+            *table(
+                ["task", "run", "seeds", f"wall time to {LEVEL}", "with the library's build"],
+                walls,
+            ),
         ]
     methods = [(label, cell.method) for label, cell, _ in found]
     ranked = [(*named, per, s) for named, (_, _, per, s) in zip(methods, ours, strict=True)]

@@ -49,15 +49,17 @@ def shortfalls(ours) -> list[str]:
             continue
         best = min(figures, key=lambda f: f["env_steps"])
         reached = [
-            (stats.first_reaching(s.mean(axis=0), LEVEL), per, name) for name, per, s in mine
+            (stats.first_reaching(s.mean(axis=0), LEVEL), per, name, s) for name, per, s in mine
         ]
-        reached = [(hit * per, name) for hit, per, name in reached if hit is not None]
+        reached = [(hit * per, name, per, s) for hit, per, name, s in reached if hit is not None]
         theirs = f"{best['method']} ({best['source']}) reaches it at {best['env_steps']:,}"
         if reached:
             # A headline on fresh seeds is the figure we stand by, even where a tuning cell
             # reached the level sooner.
-            steps, name = min([r for r in reached if _fresh(r[1])] or reached)
-            verdict = "ahead of" if steps < best["env_steps"] else "behind"
+            steps, name, per, s = min(
+                [r for r in reached if fresh(r[1])] or reached, key=lambda r: (r[0], r[1])
+            )
+            interval, verdict = _against(s, per, best["env_steps"])
             total = steps + library_cost(name)
             counted = "ahead of" if total < best["env_steps"] else "behind"
             with_build = (
@@ -66,8 +68,8 @@ def shortfalls(ours) -> list[str]:
                 else ""
             )
             out.append(
-                f"On {env}, {name} reaches {LEVEL} at {steps:,} env steps; {theirs}: "
-                f"we are {verdict} the published DDPG+HER.{_caveats(name)}{with_build}"
+                f"On {env}, {name} reaches {LEVEL} at {steps:,} env steps {interval}; "
+                f"{theirs}: {verdict}.{_caveats(name)}{with_build}"
             )
         else:
             name, per, s = max(mine, key=lambda m: stats.summarize(m[2]).last[0])
@@ -81,8 +83,32 @@ def shortfalls(ours) -> list[str]:
     return ["", *out] if out else []
 
 
-def _fresh(name: str) -> bool:
-    """The cell labelled `name` is a headline's: it ran on seeds no tuning run used."""
+def _against(scores, per: int, published_steps: int) -> tuple[str, str]:
+    """('[95 % interval LOW, HIGH]' env steps, the verdict) of a cell's env steps to LEVEL
+    beside a published figure's: the bootstrap interval over seeds (`stats.reach_interval`;
+    a bound past the budget reads 'not within N'); ahead of or behind the figure only when
+    the whole interval is, else said as what the data shows."""
+    low, high = stats.reach_interval(scores, LEVEL)
+    budget = scores.shape[1] * per
+    show = lambda e: f"not within {budget:,}" if e is None else f"{e * per:,}"  # noqa: E731
+    them = "the published DDPG+HER"
+    if high is not None and high * per < published_steps:
+        verdict = f"we are ahead of {them}"
+    elif low is not None and low * per > published_steps:
+        verdict = f"we are behind {them}"
+    elif high is None and budget < published_steps:
+        verdict = (
+            f"ahead of {them} at the point estimate, not by the interval: some resamples of "
+            f"the seeds do not reach it within our budget of {budget:,} env steps"
+        )
+    else:
+        verdict = f"level with {them} within the interval"
+    return f"[95 % interval {show(low)}, {show(high)}]", verdict
+
+
+def fresh(name: str) -> bool:
+    """The cell labelled `name` is a headline's or its baseline's (`role = "headline"`, by
+    itself or through `extends`): it ran on seeds no tuning run used."""
     name = name.split(":")[0]
     return name in names() and raw(name).get("role") == "headline"
 
@@ -102,7 +128,7 @@ def _caveats(name: str) -> str:
             f" That cell ran on the tuning seeds {exp.seed}-{exp.seed + exp.seeds - 1} "
             "(no fresh-seed headline reaches the level yet)."
         )
-    elif _fresh(name):
+    elif fresh(name):
         out += f" That cell is a headline's: seeds {exp.seed}-{exp.seed + exp.seeds - 1}, fresh."
     cost = library_cost(name)
     if cost:
@@ -110,7 +136,8 @@ def _caveats(name: str) -> str:
             f" It uses the skill library {library_used(name)[0]} of Fetch, whose build "
             f"took {cost:,} env steps once, not counted in its curve."
         )
-    if not all(spec.flat_policy for spec in _methods_of(label, exp.methods)):
+    flat = all(spec.flat_policy for spec in _methods_of(label, exp.methods))
+    if not flat and exp.group != "baseline":
         out += (
             " Its evaluated policy is not a flat actor as DDPG+HER's: it also acts with the "
             "library's skills (the critic picks among their actions, or a meta-controller "
@@ -140,13 +167,14 @@ def library_cost(name: str) -> int:
 
 def library_used(name: str) -> tuple[str, Path] | None:
     """(library, its manifest's path) that the cells of the experiment of the cell labelled
-    `name` search with (None: no library method, or not an experiment)."""
+    `name` search with (None: no library method, a matched baseline, or not an
+    experiment)."""
     from mjx_skills.methods import get
 
     name = name.split(":")[0]
-    if name not in names():
-        return None
-    for cell in load_experiment(name).cells():
+    if name not in names() or (exp := load_experiment(name)).group == "baseline":
+        return None  # a matched baseline's library method runs with the library removed
+    for cell in exp.cells():
         group = get(cell.method).library_group
         if group is not None:
             options = cells.run_config(cell.run_args(out="", progress=False))["options"][group]

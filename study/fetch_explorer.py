@@ -12,12 +12,12 @@ from mjx_skills.sweeps.seeds import describe, seed_range
 from study.headlines import experiments
 
 
-def fast_sentence(task: str, target: int, level: float, found) -> str:
+def fast_sentence(task: str, end: int, level: float, found) -> str:
     """What DDPG+HER+SL+Fast (a learner that takes more from each episode) showed on `task`:
     its stored cell's (a fresh-seed one if there is one; never a matched baseline's) 5-epoch
-    mean at the target's epoch (at its last epoch if it stops before) and when it reaches
-    `level`; or the
-    experiment that measures it while none is stored; '' if no experiment runs it."""
+    mean over the same epochs as the DDPG+HER+SL sentence's, those up to `end` (its last
+    epochs if it stops before), and when it reaches `level`; or the experiment that
+    measures it while none is stored; '' if no experiment runs it."""
     runs = [
         run
         for run in found
@@ -27,14 +27,14 @@ def fast_sentence(task: str, target: int, level: float, found) -> str:
     if runs:  # a headline's cell (fresh seeds) before a tuning cell
         label, cell, rows = min(runs, key=lambda run: run[1].seed == 0)
         evals = stats.scores_from_rows(rows).mean(axis=0)
-        end = min(target, len(evals))  # a cell shorter than the target: its last epochs
+        end = min(end, len(evals))  # a cell that stops before: its last epochs
         window = slice(max(0, end - stats.WINDOW), end)
         hit = stats.first_reaching(evals, level)
         reached = f"reaches {level} at epoch {hit}" if hit else f"never reaches {level}"
         seeds = describe(seed_range(cell.seed, cell.seeds))
         return (
             f" A learner that takes more from each episode, DDPG+HER+SL+Fast ({label}, seeds "
-            f"{seeds}), succeeds on {evals[window].mean():.2f} over epochs "
+            f"{seeds}), succeeds on {evals[window].mean():.2f} over the same epochs "
             f"{window.start + 1}-{end} and {reached}."
         )
     files = [n for n in names() if _is_fast(*_method_task(raw(n)), task)]
@@ -77,6 +77,6 @@ def paragraph(found) -> list[str]:
             f"episodes reached the goal, but its frozen policy succeeded on "
             f"{evals[window].mean():.2f} of its evaluations over epochs "
             f"{window.start + 1}-{end}; on its own after that, the policy {after} (the "
-            f"target: epoch {target})." + fast_sentence(cell.task, target, level, found)
+            f"target: epoch {target})." + fast_sentence(cell.task, end, level, found)
         )
     return ["", *out] if out else []

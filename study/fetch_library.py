@@ -24,17 +24,19 @@ def manifests() -> dict[str, Path]:
     }
 
 
-def library_tables(used: list[tuple[str, Path]] = ()) -> list[str]:
+def library_tables(used: list[tuple[str, Path]] = (), serves: dict = None) -> list[str]:
     """`library_table` for the first library of Fetch (saying so when it is not built) and
     for each other that is built, at its default directory or among `used` ((library,
-    manifest path) that stored cells searched with), each once, with a blank line between."""
+    manifest path) that stored cells searched with), each once, with a blank line between.
+    `serves`: resolved manifest path -> the tasks whose stored cells search with it."""
+    serves = serves or {}
     first, *others = manifests().items()
-    out = library_table(first[1], first[0])
+    out = library_table(first[1], first[0], serves.get(first[1].resolve(), ()))
     shown = {first[1].resolve()}
     for name, path in [*others, *used]:
         if path.exists() and path.resolve() not in shown:
             shown.add(path.resolve())
-            out += ["", *library_table(path, name)]
+            out += ["", *library_table(path, name, serves.get(path.resolve(), ()))]
     return out
 
 
@@ -45,10 +47,13 @@ def build_env_steps(manifest: dict) -> int:
     return sum(steps.get("train", {}).values()) + sum(steps.get("collect", {}).values())
 
 
-def library_table(path: Path = LIBRARY, library: str = "SL1_fetch") -> list[str]:
+def library_table(
+    path: Path = LIBRARY, library: str = "SL1_fetch", serves: tuple[str, ...] = ()
+) -> list[str]:
     """Table 5.1's columns for library `library` of Fetch at `path` (its manifest; no thesis
     figures: the thesis has no Fetch) with the trivial goal predictor beside them, each
-    skill's success, and the env steps its build took: skill training and data collection."""
+    skill's success, and the env steps its build took: skill training and data collection.
+    `serves`: the tasks whose stored cells search with it (said beside its cost)."""
     if not path.exists():
         return [f"No skill library {library} of Fetch is built yet (`make skills ROBOT=fetch`)."]
     m = json.loads(path.read_text())
@@ -76,7 +81,11 @@ def library_table(path: Path = LIBRARY, library: str = "SL1_fetch") -> list[str]
         'terminal errors with the trivial predictor ("the run ends at its goal", goal cm) '
         f"beside them; its build took {total:,} env steps (skill training and data "
         "collection; evaluation and the starts' placement not counted), a one-time cost "
-        "shared by every Fetch task the library serves.",
+        + (
+            f"that the stored cells of {' and '.join(serves)} share."
+            if serves
+            else "that no stored cell searches with yet."
+        ),
         "",
         *table([*header, "training env steps", "collection env steps"], rows),
     ]

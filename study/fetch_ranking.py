@@ -1,7 +1,7 @@
 """The thesis's ranking on Fetch (issue #45): DDPG+HER+SL above PAS and MPAS, and those above
 DDPG+HER, in the mean eval success over the first 100,000 task env steps of
 FetchPickAndPlace, from the stored tuning cells (seeds 0-2) of each method at the same
-learner and budget. A rank holds when the upper method's 95 % interval of that mean lies
+budget (PAS and MPAS: their own meta-controllers over the same library). A rank holds when the upper method's 95 % interval of that mean lies
 entirely above the lower's (the report's "faster" rule); it is reversed when the interval
 lies entirely below; otherwise our data does not show it."""
 
@@ -59,9 +59,12 @@ def section(found: dict[str, np.ndarray]) -> list[str]:
     said = [f"{get(a).label} above {get(b).label}: {verdict(found[a], found[b])}" for a, b in RANKS]
     return [
         "",
-        f"The thesis's ranking on FetchPickAndPlace (the tuning cells, seeds 0-2, the same "
-        f"learner and budget): the mean eval success over the first {BUDGET:,} env steps "
-        "[95 % interval]. A rank holds when the upper interval lies entirely above the lower.",
+        "The thesis's ranking on FetchPickAndPlace (the tuning cells, seeds 0-2, the same "
+        "task, starts, evaluation and budget; DDPG+HER+SL and DDPG+HER share this project's "
+        "default learner, PAS and MPAS are their own meta-controllers over the same skill "
+        f"library, at their default options): the mean eval success over the first "
+        f"{BUDGET:,} env steps [95 % interval]. A rank holds when the upper interval lies "
+        "entirely above the lower.",
         "",
         *table(["method", "seeds", f"mean success, first {BUDGET:,} env steps"], rows),
         "",

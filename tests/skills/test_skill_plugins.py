@@ -148,6 +148,8 @@ def test_a_library_with_the_push_skill_is_built_loaded_and_searched(push, tmp_pa
     length = envs.make("push").episode_length  # one epoch of 16 episodes; runs of <= length
     assert manifest["env_steps"]["train"] == {"push": 16 * length}
     assert 0 < manifest["env_steps"]["collect"]["push"] <= 100 * length
+    # its training run's wall: within this process's time for the skill (training + eval)
+    assert 0 < manifest["train_wall_s"]["push"] <= manifest["timings_s"]["train_push_s"] + 0.1
     lib, _ = library.load(out)
     assert lib.names == ("push",)
     registry.register_library("push_only", ("push",))

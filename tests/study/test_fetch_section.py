@@ -36,17 +36,25 @@ def test_peer_rows_of_the_same_settings_form_one_run_of_several_seeds(tmp_path):
     assert fetch.peer_cells(tmp_path / "none.jsonl") == []
 
 
-def test_a_peer_is_compared_with_our_cells_over_the_same_epochs():
+def test_a_peer_is_compared_with_our_fresh_cells_up_to_the_shorter_runs_end():
     theirs = np.full((2, 10), 0.5)
+    theirs[:, 3:8] = 0.1  # their epochs 4-8: a run of 8 epochs' window (3 of 5 of theirs)
     ours = np.zeros((3, 40))
     ours[:, 5:10] = 0.2  # the same env steps as their last 5 epochs
     ours[:, 10:] = 1.0  # later than their budget: not compared
     (line,) = fetch.peer_comparison(
-        [("mine", "fetch_push", 800, ours), ("short", "fetch_push", 800, ours[:, :8])],
+        [
+            ("mine", "fetch_push", 800, ours),
+            ("short", "fetch_push", 800, ours[:, :8]),
+            ("tuned", "fetch_push", 800, ours),
+        ],
         [("SB3 X", "fetch_push", 800, theirs)],
+        keep=lambda name: name != "tuned",
     )
-    assert line.startswith("- FetchPush, the last 5 epochs up to 8,000 env steps: SB3 X 0.50")
-    assert "ours: mine 0.20 [0.20, 0.20] (3 seeds)." in line and "short" not in line
+    assert line.startswith("- FetchPush, SB3 X (2 seeds) beside our fresh-seed cells")
+    assert "mine 0.20 [0.20, 0.20] (3 seeds) against 0.26 [0.26, 0.26], up to 8,000" in line
+    assert "short 0.12 [0.12, 0.12] (3 seeds) against 0.10 [0.10, 0.10], up to 6,400" in line
+    assert "tuned" not in line
     assert fetch.peer_comparison([], [("SB3 X", "fetch_push", 800, theirs)]) == []
 
 
@@ -67,6 +75,9 @@ def test_the_fetch_librarys_table_counts_the_env_steps_its_build_took(tmp_path):
     lines = fetch_library.library_table(path)
     assert "its build took 288,400 env steps" in lines[0] and "`abcdef0`" in lines[0]
     assert lines[5] == "| fetch_grasp | 0.900 | 1.00 | 0.50 | 2.00 | 0.990 | 32,000 | 150,000 |"
+    assert "a one-time cost that no stored cell searches with yet." in lines[0]
+    served = fetch_library.library_table(path, "SL_x", ("FetchPush", "FetchReach"))[0]
+    assert "a one-time cost that the stored cells of FetchPush and FetchReach share." in served
     assert fetch_library.library_table(tmp_path / "none.json", "SL_x")[0].startswith(
         "No skill library SL_x of Fetch"
     )
@@ -83,6 +94,10 @@ def test_a_cell_beside_a_published_figure_says_its_seeds_and_its_librarys_cost()
     fast = fetch_claims._caveats("fetch_push_fast")  # the critic picks among skill actions
     assert "Its evaluated policy is not a flat actor as DDPG+HER's" in fast
     assert "not a flat actor" in fetch_claims._caveats("fetch_pick_and_place_pas: PAS")
+    # a matched baseline runs Fast's method with the library removed: neither is said
+    base = fetch_claims._caveats("headline_fetch_push_fast_no_library")
+    assert "library" not in base and "not a flat actor" not in base
+    assert fetch_claims.library_used("headline_fetch_push_fast_no_library") is None
 
 
 def test_the_wall_clock_of_a_resumed_run_adds_its_stretches():
@@ -95,7 +110,13 @@ def test_the_wall_clock_of_a_resumed_run_adds_its_stretches():
     np.testing.assert_allclose(fetch.clock(rows), [10, 20, 30, 35, 45])
 
 
-def test_the_wall_time_to_the_level_is_read_at_the_epoch_that_reaches_it():
+def test_the_wall_time_to_the_level_is_read_at_the_epoch_that_reaches_it(tmp_path, monkeypatch):
+    manifest, old = tmp_path / "manifest.json", tmp_path / "old.json"
+    timings = {"train_a_s": 1.0, "collect_s": 90.0, "fit_s": 30.0}  # a reused skill: 1 s
+    manifest.write_text(json.dumps({"timings_s": timings, "train_wall_s": {"a": 60.0}}))
+    old.write_text(json.dumps({"timings_s": timings}))  # no training wall recorded
+    libraries = {"searcher": ("SL_x", manifest), "older": ("SL_y", old)}
+    monkeypatch.setattr(fetch, "library_used", libraries.get)
     curve = [0.0, 0.2, 0.95, 0.95, 0.95, 0.95, 0.95, 1.0]  # rolling mean reaches 0.9 at epoch 7
     ours = [
         {"epoch": e, "seed": s, "wall_s": 60.0 * e, "eval_success": v, "env_steps": 800 * e}
@@ -106,10 +127,13 @@ def test_the_wall_time_to_the_level_is_read_at_the_epoch_that_reaches_it():
     walls = np.tile(np.arange(1, 9) * 120.0, (2, 1))
     theirs = [("SB3 X", "fetch_push", 800, np.tile(curve, (2, 1)), walls)]
     push = Cell(task="fetch_push", method="ddpg_her", library=None, seeds=3, epochs=8)
-    rows = fetch.wall_table([("mine", push, ours), ("flat", push, never)], theirs)
-    assert rows == [
-        ["FetchPush", "mine", "3 at once", "7.0 min"],
-        ["FetchPush", "SB3 X", "1 at a time", "14.0 min"],
+    found = [("mine", push, ours), ("flat", push, never), ("searcher", push, ours)]
+    found += [("older", push, ours)]
+    assert fetch.wall_table(found, theirs) == [
+        ["FetchPush", "mine", "3 at once", "7.0 min", "-"],
+        ["FetchPush", "searcher", "3 at once", "7.0 min", "10.0 min"],  # + the 3 min build
+        ["FetchPush", "older", "3 at once", "7.0 min", "-"],
+        ["FetchPush", "SB3 X", "1 at a time", "14.0 min", "-"],
     ]
 
 
