@@ -73,10 +73,11 @@ def clock(rows: list[dict]) -> np.ndarray:
 
 
 def wall_table(found, peers) -> list[list[str]]:
-    """Rows (task, run, seeds at once, wall to LEVEL, with the library's build) for each of our cells (`_stored()`'s
-    list) and each peer group (`_peer_groups()`'s) that reaches LEVEL: the seconds on this machine's 2 cores until the epoch at
-    which the rolling mean first reaches it (ours: all the cell's seeds in one program;
-    a peer: one seed at a time, the mean over its seeds)."""
+    """Rows (task, run, seeds at once, wall to LEVEL, with the library's build) for each of
+    our cells (`_stored()`'s list) and each peer group (`_peer_groups()`'s) that reaches
+    LEVEL: the seconds on this machine's 2 cores until the epoch at which the rolling mean
+    first reaches it (ours: all the cell's seeds in one program; a peer: one seed at a time,
+    the mean over its seeds)."""
     rows = []
     for name, cell, metrics in found:
         hit = stats.first_reaching(stats.scores_from_rows(metrics).mean(axis=0), LEVEL)

@@ -137,7 +137,7 @@ def _caveats(name: str) -> str:
             f"took {cost:,} env steps once, not counted in its curve."
         )
     flat = all(spec.flat_policy for spec in _methods_of(label, exp.methods))
-    if not flat and exp.group != "baseline":
+    if not flat and library_used(name) is not None:  # a matched baseline has no library
         out += (
             " Its evaluated policy is not a flat actor as DDPG+HER's: it also acts with the "
             "library's skills (the critic picks among their actions, or a meta-controller "

@@ -24,7 +24,9 @@ def manifests() -> dict[str, Path]:
     }
 
 
-def library_tables(used: list[tuple[str, Path]] = (), serves: dict = None) -> list[str]:
+def library_tables(
+    used: list[tuple[str, Path]] = (), serves: dict[Path, list[str]] | None = None
+) -> list[str]:
     """`library_table` for the first library of Fetch (saying so when it is not built) and
     for each other that is built, at its default directory or among `used` ((library,
     manifest path) that stored cells searched with), each once, with a blank line between.

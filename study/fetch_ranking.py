@@ -1,9 +1,10 @@
 """The thesis's ranking on Fetch (issue #45): DDPG+HER+SL above PAS and MPAS, and those above
 DDPG+HER, in the mean eval success over the first 100,000 task env steps of
 FetchPickAndPlace, from the stored tuning cells (seeds 0-2) of each method at the same
-budget (PAS and MPAS: their own meta-controllers over the same library). A rank holds when the upper method's 95 % interval of that mean lies
-entirely above the lower's (the report's "faster" rule); it is reversed when the interval
-lies entirely below; otherwise our data does not show it."""
+budget (PAS and MPAS: their own meta-controllers over the same library). A rank holds when
+the upper method's 95 % interval of that mean lies entirely above the lower's (the
+report's "faster" rule); it is reversed when the interval lies entirely below; otherwise
+our data does not show it."""
 
 from __future__ import annotations
 
