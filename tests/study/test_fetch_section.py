@@ -115,8 +115,22 @@ def test_the_wall_time_to_the_level_is_read_at_the_epoch_that_reaches_it(tmp_pat
     timings = {"train_a_s": 1.0, "collect_s": 90.0, "fit_s": 30.0}  # a reused skill: 1 s
     manifest.write_text(json.dumps({"timings_s": timings, "train_wall_s": {"a": 60.0}}))
     old.write_text(json.dumps({"timings_s": timings}))  # no training wall recorded
+    lib = tmp_path / "skill_library_z"  # predates the record; rebuilt with the same digest
+    lib.mkdir()
+    (lib / "manifest.json").write_text(json.dumps({"timings_s": timings, "digest": "d1"}))
+    rebuilds = tmp_path / "rebuilds"
+    rebuilds.mkdir()
+    rebuilt = {"timings_s": timings, "train_wall_s": {"a": 240.0}}
+    (rebuilds / "skill_library_z.json").write_text(json.dumps({**rebuilt, "digest": "d1"}))
+    other = tmp_path / "skill_library_w"  # its rebuild made other arrays: not its record
+    other.mkdir()
+    (other / "manifest.json").write_text(json.dumps({"timings_s": timings, "digest": "d2"}))
+    (rebuilds / "skill_library_w.json").write_text(json.dumps({**rebuilt, "digest": "d3"}))
     libraries = {"searcher": ("SL_x", manifest), "older": ("SL_y", old)}
+    libraries |= {"rebuilt": ("SL_z", lib / "manifest.json")}
+    libraries |= {"mismatch": ("SL_w", other / "manifest.json")}
     monkeypatch.setattr(fetch, "library_used", libraries.get)
+    monkeypatch.setattr(fetch, "REBUILDS", rebuilds)
     curve = [0.0, 0.2, 0.95, 0.95, 0.95, 0.95, 0.95, 1.0]  # rolling mean reaches 0.9 at epoch 7
     ours = [
         {"epoch": e, "seed": s, "wall_s": 60.0 * e, "eval_success": v, "env_steps": 800 * e}
@@ -128,11 +142,13 @@ def test_the_wall_time_to_the_level_is_read_at_the_epoch_that_reaches_it(tmp_pat
     theirs = [("SB3 X", "fetch_push", 800, np.tile(curve, (2, 1)), walls)]
     push = Cell(task="fetch_push", method="ddpg_her", library=None, seeds=3, epochs=8)
     found = [("mine", push, ours), ("flat", push, never), ("searcher", push, ours)]
-    found += [("older", push, ours)]
+    found += [("older", push, ours), ("rebuilt", push, ours), ("mismatch", push, ours)]
     assert fetch.wall_table(found, theirs) == [
         ["FetchPush", "mine", "3 at once", "7.0 min", "-"],
         ["FetchPush", "searcher", "3 at once", "7.0 min", "10.0 min"],  # + the 3 min build
         ["FetchPush", "older", "3 at once", "7.0 min", "-"],
+        ["FetchPush", "rebuilt", "3 at once", "7.0 min", "13.0 min"],  # + the rebuild's 6
+        ["FetchPush", "mismatch", "3 at once", "7.0 min", "-"],
         ["FetchPush", "SB3 X", "1 at a time", "14.0 min", "-"],
     ]
 
