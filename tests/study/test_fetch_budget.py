@@ -31,16 +31,16 @@ def test_the_sentence_sets_both_budgets_side_by_side():
 FIGURE = {**MRL, "method": "DDPG w/ HER", "env_steps": 350_000}
 
 
-def test_the_reproduction_lists_the_ddpg_her_cells_best_first_with_a_verdict():
-    low, high = np.full((3, 10), 0.1), np.full((3, 10), 0.2)
+def test_the_reproduction_lists_the_ddpg_her_cells_longest_first_with_a_verdict():
+    low, high = np.full((3, 10), 0.1), np.full((3, 12), 0.2)
     mine = [("fetch_push_sl", 800, np.ones((3, 10))), ("fetch_her", 800, low)]
     mine.append(("fetch_push_her", 800, high))
     said = fetch_budget.reproduction("FetchPush", mine, FIGURE, 0.9)
     assert said.startswith("DDPG+HER's reproduction on FetchPush: DDPG w/ HER (mrl) reaches")
     assert "sampling 1000 transitions per env step; ours: fetch_push_her (3 seeds, 102" in said
-    assert said.index("fetch_push_her (") < said.index("fetch_her (")  # best last-5 first
+    assert said.index("fetch_push_her (") < said.index("fetch_her (")  # the longer first
     assert "fetch_push_sl" not in said  # a library cell is not DDPG+HER
-    assert "ends at a last-5 mean of 0.20 after 8,000 env steps (never 0.9)" in said
+    assert "ends at a last-5 mean of 0.20 after 9,600 env steps (never 0.9)" in said
     assert "Not tested yet: no cell ran to the published 350,000 env steps." in said
     assert "No cell has run at the published learner's" in said
     assert fetch_budget.reproduction("FetchPush", mine[:1], FIGURE, 0.9) == ""
@@ -50,9 +50,35 @@ def test_a_cell_at_the_published_budget_that_falls_short_says_the_budget_does_no
     short = np.full((1, 450), 0.5)
     said = fetch_budget.reproduction("FetchPush", [("fetch_push_her_mrl", 800, short)], FIGURE, 0.9)
     assert "fetch_push_her_mrl (1 seed, 1000 transitions per env step)" in said
-    assert "Not reproduced yet: fetch_push_her_mrl ran 360,000 env steps, past the" in said
+    assert "Not reproduced yet: fetch_push_her_mrl (1 seed) ran 360,000 env steps, past" in said
     assert "(the allowance, 1.5 times, runs to 525,000)" in said
-    assert "fetch_push_her_mrl samples the published learner's transitions per env step" in said
+    assert (
+        "fetch_push_her_mrl samples the published learner's transitions per env step and " in said
+    )
+    assert "still falls short (1 seed;" in said
+
+
+def test_the_verdict_is_the_published_budgets_cell_not_a_longer_one_at_another_budget():
+    at_mrl = ("fetch_push_her_mrl", 800, np.full((1, 450), 0.5))  # 360k at mrl's budget
+    longer = ("fetch_push_her", 800, np.full((3, 700), 0.2))  # 560k at a tenth of it
+    said = fetch_budget.reproduction("FetchPush", [longer, at_mrl], FIGURE, 0.9)
+    assert said.index("fetch_push_her_mrl (") < said.index("fetch_push_her (3 seeds")
+    assert "Not reproduced yet: fetch_push_her_mrl (1 seed) ran 360,000" in said
+
+
+def test_a_cell_that_repeats_a_longer_ones_first_epochs_is_named_in_its_entry():
+    curve = np.linspace(0.0, 0.8, 660)[None]
+    mine = [("fetch_push_her_mrl", 800, curve[:, :450]), ("fetch_push_her_mrl_long", 800, curve)]
+    said = fetch_budget.reproduction("FetchPush", mine, FIGURE, 0.9)
+    assert said.count("(1 seed, 1000 transitions per env step)") == 1
+    assert "(never 0.9; its first epochs repeat fetch_push_her_mrl's bit for bit)" in said
+    assert "Not reproduced: fetch_push_her_mrl_long (1 seed) ran 528,000 env steps, 1.5" in said
+    changed = curve[:, :450].copy()
+    changed[0, 10] += 0.01  # not the same run: both are evidence
+    said = fetch_budget.reproduction(
+        "FetchPush", [(mine[0][0], 800, changed), mine[1]], FIGURE, 0.9
+    )
+    assert said.count("(1 seed, 1000 transitions per env step)") == 2
 
 
 def test_reaching_the_level_within_the_allowed_multiple_reproduces_and_later_does_not():
@@ -63,12 +89,15 @@ def test_reaching_the_level_within_the_allowed_multiple_reproduces_and_later_doe
 
     within = int(fetch_budget.REPRODUCED_WITHIN * 350_000 / 800) - 10
     said = fetch_budget.reproduction("FetchPush", reaching_at(within), FIGURE, 0.9)
-    assert "Reproduced (within" in said and "does not explain" not in said
+    assert "Reproduced by fetch_push_her (3 seeds; within" in said and "explain" not in said
     said = fetch_budget.reproduction("FetchPush", reaching_at(within + 20), FIGURE, 0.9)
-    assert "Not reproduced" in said
+    # ones from epoch within + 21 (1-based): the rolling mean of 5 is 1 at epoch within + 25
+    at = (within + 25) * 800
+    assert f"Not reproduced: fetch_push_her (3 seeds) reaches 0.9 at {at:,} env steps, past" in said
+    assert f"(reaches 0.9 at {at:,})" in said  # the entry and the verdict agree
 
 
 def test_a_cell_past_the_allowance_without_the_level_is_not_reproduced():
     long = [("fetch_push_her_mrl", 800, np.full((1, 700), 0.5))]  # 560,000 > 1.5 x 350,000
     said = fetch_budget.reproduction("FetchPush", long, FIGURE, 0.9)
-    assert "Not reproduced: fetch_push_her_mrl ran 560,000 env steps, 1.5 times" in said
+    assert "Not reproduced: fetch_push_her_mrl (1 seed) ran 560,000 env steps, 1.5 times" in said
