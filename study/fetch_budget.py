@@ -88,18 +88,10 @@ def reproduction(env: str, mine: list, figure: dict, level: float) -> str:
     named in that one's entry); the verdict, from the cells at the published budget where
     any ran; and, where they fall short, that the budget alone does not explain the gap,
     with the seeds it rests on. '' if no DDPG+HER cell ran."""
-    budgets = [(name, per, s, ours(name)) for name, per, s in mine]
-    plain = [(name, per, s, budget) for name, per, s, budget in budgets if budget is not None]
+    plain, repeated, judged = _cells(mine, figure)
     if not plain:
         return ""
     published = theirs(figure)
-    repeated = repeats([(name, per, s) for name, per, s, _ in plain])
-    plain = [m for m in plain if m[0] not in repeated]
-
-    def matched(cell) -> bool:
-        return bool(published) and abs(cell[3][0] - published) <= MATCHED * published
-
-    plain.sort(key=lambda m: (not matched(m), -m[2].shape[1] * m[1]))
     parts = []
     for name, per, s, (transitions, *_) in plain:
         hit = stats.first_reaching(s.mean(axis=0), level)
@@ -112,7 +104,6 @@ def reproduction(env: str, mine: list, figure: dict, level: float) -> str:
             + "".join(f"; its first epochs repeat {short}'s bit for bit" for short in again)
             + ")"
         )
-    judged = [m for m in plain if matched(m)] or plain
     line = (
         f"DDPG+HER's reproduction on {env}: {figure['method']} ({figure['source']}) reaches "
         f"{level} at {figure['env_steps']:,} env steps"
@@ -124,7 +115,7 @@ def reproduction(env: str, mine: list, figure: dict, level: float) -> str:
     )
     if _reproduced(judged, figure["env_steps"], level):
         return line
-    if not matched(judged[0]):
+    if not _matched(judged[0], published):
         return line + (
             " No cell has run at the published learner's budget yet." if published else ""
         )
@@ -137,6 +128,32 @@ def reproduction(env: str, mine: list, figure: dict, level: float) -> str:
         "gradient budget alone does not explain the gap."
     )
     return line
+
+
+def reproduced(mine: list, figure: dict, level: float) -> bool | None:
+    """Whether `reproduction`'s verdict on the same cells is 'Reproduced' (None: no DDPG+HER
+    cell ran)."""
+    judged = _cells(mine, figure)[2]
+    return _reproduced(judged, figure["env_steps"], level) if judged else None
+
+
+def _cells(mine: list, figure: dict) -> tuple[list, dict[str, str], list]:
+    """(DDPG+HER cells of `mine` as (label, per, success, `ours` budget), those at the
+    published learner's budget first, then the longest, less `repeats`; the repeats; the
+    cells the verdict is judged on: those at the published budget if any ran, else all)."""
+    budgets = [(name, per, s, ours(name)) for name, per, s in mine]
+    plain = [(name, per, s, budget) for name, per, s, budget in budgets if budget is not None]
+    published = theirs(figure)
+    repeated = repeats([(name, per, s) for name, per, s, _ in plain])
+    plain = [m for m in plain if m[0] not in repeated]
+    plain.sort(key=lambda m: (not _matched(m, published), -m[2].shape[1] * m[1]))
+    return plain, repeated, [m for m in plain if _matched(m, published)] or plain
+
+
+def _matched(cell, published: float | None) -> bool:
+    """A (label, per, success, budget) cell samples the published learner's transitions per
+    env step (within `MATCHED`)."""
+    return bool(published) and abs(cell[3][0] - published) <= MATCHED * published
 
 
 def _hit(cell, level: float) -> int | None:

@@ -231,3 +231,37 @@ def test_a_cell_is_charged_the_build_of_the_library_it_searches_with(tmp_path, m
     twice = fetch_library.library_tables([("SL1_fetch", smaller), ("SL1_fetch", smaller)])
     titles = [line for line in twice if line.startswith("The skill library")]
     assert len(titles) == 2 and "small" in titles[1]
+
+
+def test_a_headlines_matched_baseline_is_fresh_even_when_it_extends_a_tuning_file():
+    assert fetch_claims.fresh("headline_fetch_push_her")  # named by headline_fetch_push
+    assert fetch_claims.fresh("headline_fetch_push_fast_no_library")  # a headline by extends
+    assert not fetch_claims.fresh("fetch_push_her") and not fetch_claims.fresh("no_such_one")
+    # a diagnostic on seed 0 is said to have run on a tuning seed
+    assert "ran on the tuning seeds 0-0" in fetch_claims._caveats("fetch_push_her_mrl")
+
+
+def test_against_a_published_figure_the_reading_error_and_the_librarys_build_count():
+    at = np.zeros((3, 100))
+    at[:, 40:] = 1.0  # reaches 0.9 at epoch 45 on every seed: 36,000 env steps
+    read = fetch_claims.read_error()
+    _, verdict = fetch_claims._against(at, 800, 36_000 + read + 800)
+    assert verdict.startswith("ahead of")
+    _, verdict = fetch_claims._against(at, 800, 36_000 + read // 2)  # within the reading
+    assert verdict.startswith("level with")
+    shown, verdict = fetch_claims._against(at, 800, 36_000 + read // 2, offset=300_000)
+    assert shown == "[95 % interval 336,000, 336,000]" and verdict.startswith("behind")
+
+
+def test_a_gap_to_a_published_figure_is_qualified_until_our_ddpg_her_reproduces_it():
+    fast = np.zeros((3, 700))
+    fast[:, 40:] = 1.0
+    slow, quick = np.full((1, 700), 0.5), np.zeros((1, 700))
+    quick[:, 300:] = 1.0  # at mrl's budget, 0.9 at 244,000 env steps: reproduced
+    mine = [("fetch_push_sl", "fetch_push", 800, fast)]
+    (line,) = fetch_claims.shortfalls([*mine, ("fetch_push_her_mrl", "fetch_push", 800, slow)])[1:2]
+    assert "Our own DDPG+HER has not reproduced that figure on FetchPush (below)" in line
+    (line,) = fetch_claims.shortfalls([*mine, ("fetch_push_her_mrl", "fetch_push", 800, quick)])[
+        1:2
+    ]
+    assert "has not reproduced" not in line and "has not run" not in line
