@@ -18,8 +18,11 @@ recorded in every row). `--algo ddpg` runs SB3's DDPG+HER with the same HER and 
 noise 0.2 instead.
 
 Evaluation as ours: after every 16 training episodes (800 env steps), 20 episodes of the
-deterministic policy from fixed seeds, success read at the last step; evaluation steps are
-not counted, and its time is not on the training clock (`wall_s`).
+deterministic policy from starts drawn afresh for each epoch and seed (`eval_seeds`), success
+read at the last step; evaluation steps are not counted, and its time is not on the
+training clock (`wall_s`). Rows without `eval_starts` were evaluated on the same 20 starts
+at every epoch and seed (reset seeds 10,000-10,019): their seeds' curves are not
+independent samples of the start distribution, and the report says so.
 
 One JSON row per (task, algo, seed, settings) in `benchmarks/results/peer_sb3_fetch.jsonl`;
 a seed whose row with the same settings is there already is skipped (rerunning resumes a
@@ -68,12 +71,24 @@ def make_env(task: str) -> gymnasium.Env:
     return gymnasium.wrappers.TimeLimit(reference_env(task), max_episode_steps=EPISODE)
 
 
+EVAL_STARTS = "fresh per epoch and seed"
+"""How the evaluation's starts are drawn (recorded in every row: older rows used one fixed set)."""
+
+
+def eval_seeds(seed: int, epoch: int) -> list[int]:
+    """The env reset seeds of training seed `seed`'s evaluation after epoch `epoch` (1-based):
+    20 of their own, distinct across epochs and seeds (our runs draw theirs from the run's
+    PRNG key, so no two epochs or seeds share starts)."""
+    first = EVAL_SEED + (seed * 100_000 + (epoch - 1)) * EVAL_EPISODES
+    return list(range(first, first + EVAL_EPISODES))
+
+
 class Evaluator:
     """An SB3 callback's body: every epoch (16 training episodes), 20 deterministic episodes
-    from fixed seeds; the training clock excludes their time."""
+    from `eval_seeds`; the training clock excludes their time."""
 
-    def __init__(self, task: str):
-        self.env, self.curve = make_env(task), []
+    def __init__(self, task: str, seed: int):
+        self.env, self.curve, self.seed = make_env(task), [], seed
         self.t0, self.eval_s = time.perf_counter(), 0.0
 
     def train_s(self) -> float:
@@ -81,7 +96,7 @@ class Evaluator:
 
     def __call__(self, model, env_steps: int) -> float:
         t_eval = time.perf_counter()
-        seeds = [EVAL_SEED + i for i in range(EVAL_EPISODES)]
+        seeds = eval_seeds(self.seed, len(self.curve) + 1)
         success = PEER_SB3["success_rate"](model, self.env, seeds)
         self.eval_s += time.perf_counter() - t_eval
         self.curve.append(
@@ -134,7 +149,7 @@ def run(task: str, algo: str, steps: int, net: int, batch: int, seed: int) -> di
     from stable_baselines3.common.callbacks import BaseCallback
 
     torch.set_num_threads(os.cpu_count() or 1)
-    evaluator, every = Evaluator(task), EPISODES_PER_EPOCH * EPISODE
+    evaluator, every = Evaluator(task, seed), EPISODES_PER_EPOCH * EPISODE
 
     class Callback(BaseCallback):
         def _on_step(self) -> bool:
@@ -169,7 +184,8 @@ def key(task: str, algo: str, steps: int, net: int, batch: int, seed: int) -> di
         "steps": steps,
         "net_arch": [net] * 3,
         "batch_size": batch,
-        **ZOO,
+        **{k: v for k, v in ZOO.items() if algo == "tqc" or k != "n_critics"},
+        "eval_starts": EVAL_STARTS,
         "sb3": stable_baselines3.__version__,
     }
 

@@ -131,6 +131,11 @@ def peer_cells(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray]]:
     return [group[:4] for group in _peer_groups(path)]
 
 
+SAME_STARTS = "the same eval starts"
+"""The label's note on a peer group evaluated on one fixed set of starts (rows without
+`eval_starts`, from before benchmarks/peer_sb3_fetch.py drew them afresh)."""
+
+
 def _peer_groups(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray, np.ndarray]]:
     """`peer_cells` with each group's (seeds, epochs) wall seconds since its seed started."""
     if not path.exists():
@@ -138,15 +143,16 @@ def _peer_groups(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray, np
     groups: dict[tuple, list[dict]] = {}
     for row in read_jsonl(path, whole=True):
         settings = (row["task"], row["algo"], tuple(row["net_arch"]), row["batch_size"])
-        groups.setdefault((*settings, row["steps"]), []).append(row)
+        groups.setdefault((*settings, row.get("eval_starts"), row["steps"]), []).append(row)
     out = []
-    for (task, algo, net, batch, _), rows in groups.items():
+    for (task, algo, net, batch, starts, _), rows in groups.items():
         rows = sorted(rows, key=_seed)
         curves = [[p["eval_success"] for p in r["curve"]] for r in rows]
         walls = [[p["wall_s"] for p in r["curve"]] for r in rows]
         per_epoch = rows[0]["curve"][0]["env_steps"]
         name = algo.removeprefix("sb3_").removesuffix("_her").upper()
-        label = f"SB3 {name}+HER ({len(net)} x {net[0]}, batch {batch})"
+        label = f"SB3 {name}+HER ({len(net)} x {net[0]}, batch {batch}"
+        label += ")" if starts else f", {SAME_STARTS})"
         out.append((label, task, per_epoch, np.asarray(curves, float), np.asarray(walls, float)))
     return out
 
@@ -185,7 +191,13 @@ def _reach(scores: np.ndarray, per_epoch: int) -> str:
 
 
 def _last(scores: np.ndarray) -> str:
-    return "{:.2f} [{:.2f}, {:.2f}]".format(*stats.summarize(scores).last)
+    """The last-5 mean [95 % interval] of (seeds, epochs) scores; one seed has no interval."""
+    mean, low, high = stats.summarize(scores).last
+    return (
+        f"{mean:.2f} (1 seed, no interval)"
+        if len(scores) == 1
+        else f"{mean:.2f} [{low:.2f}, {high:.2f}]"
+    )
 
 
 def section(figure_path: Path, draw: bool = True) -> list[str]:
@@ -220,8 +232,8 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
     lines = [
         *library_tables(used, serves),
         "",
-        "Our runs on gymnasium-robotics' Fetch tasks (the JAX envs, equal to the originals step "
-        "for step): env steps until the 5-epoch rolling mean of the seeds' mean eval success "
+        "Our runs on gymnasium-robotics' Fetch tasks (the JAX envs on native MuJoCo physics, "
+        "equal to the originals step for step): env steps until the 5-epoch rolling mean of the seeds' mean eval success "
         f"first reaches {LEVEL} (evaluation episodes not counted), and the last-5 mean [95 % "
         "interval]. Each experiment's file says its settings.",
         "",
@@ -242,7 +254,14 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
             "(a TQC recipe: gamma, learning rate, tau, 4 'future' goals, one gradient step "
             "per env step) and its networks and batch sized down to these 2 cores; the "
             "settings are in each row of `benchmarks/results/peer_sb3_fetch.jsonl`. "
-            "Evaluated as ours.",
+            "Evaluated as ours (20 episodes of the deterministic policy every 800 env steps)"
+            + (
+                f"; runs marked '{SAME_STARTS}' met the same 20 starts at every epoch and "
+                "seed (ours draw fresh ones), so their seeds' curves are not independent "
+                "samples of the start distribution and their intervals understate the spread."
+                if any(SAME_STARTS in label for label, *_ in peers)
+                else "."
+            ),
             "",
             *table(
                 ["task", "run", "seeds", f"env steps to {LEVEL}", "last 5 epochs"],
@@ -259,8 +278,9 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
         lines += [
             "",
             f"Wall time to {LEVEL} on these 2 cores, compile included, for the runs above that "
-            "reach it (ours train all of a cell's seeds in one program; SB3 trains one seed at "
-            "a time), and for a library method with its library's build added (the wall its "
+            "reach it (ours train all of a cell's seeds in one program, its evaluation "
+            "included, so a cell of more seeds takes longer; SB3 trains one seed at a time, "
+            "its evaluation off the clock), and for a library method with its library's build added (the wall its "
             "manifest records: skill training, data collection and model fits; a one-time "
             "cost, as its env steps; for a manifest that predates that record, a rebuild's "
             "with the same digest, experiments/results/rebuilds/; '-' where neither has it).",

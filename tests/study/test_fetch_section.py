@@ -10,8 +10,9 @@ from mjx_skills.sweeps.cell import Cell
 from study import fetch, fetch_claims, fetch_library
 
 
-def _row(seed, curve, net=256, steps=2400):
+def _row(seed, curve, net=256, steps=2400, starts="fresh per epoch and seed"):
     return {
+        "eval_starts": starts,
         "task": "fetch_push",
         "algo": "sb3_ddpg_her",
         "seed": seed,
@@ -34,6 +35,20 @@ def test_peer_rows_of_the_same_settings_form_one_run_of_several_seeds(tmp_path):
     np.testing.assert_array_equal(a[3], [[0.0] * 8, [0.1] * 8])  # ordered by seed
     assert b[0] == "SB3 DDPG+HER (3 x 64, batch 256)" and b[3].shape == (1, 8)
     assert fetch.peer_cells(tmp_path / "none.jsonl") == []
+
+
+def test_peer_rows_evaluated_on_one_fixed_set_of_starts_are_a_run_of_their_own(tmp_path):
+    path = tmp_path / "peers.jsonl"
+    old = {k: v for k, v in _row(0, [0.05] * 8).items() if k != "eval_starts"}
+    path.write_text("".join(json.dumps(r) + "\n" for r in [old, _row(0, [0.1] * 8)]))
+    (a, b) = fetch.peer_cells(path)
+    assert a[0] == "SB3 DDPG+HER (3 x 256, batch 256, the same eval starts)"
+    assert b[0] == "SB3 DDPG+HER (3 x 256, batch 256)"
+
+
+def test_one_seeds_last_five_epochs_are_said_without_an_interval():
+    assert fetch._last(np.full((1, 10), 0.5)) == "0.50 (1 seed, no interval)"
+    assert fetch._last(np.tile([[0.4], [0.6]], 10)) == "0.50 [0.40, 0.60]"
 
 
 def test_a_peer_is_compared_with_our_fresh_cells_up_to_the_shorter_runs_end():
@@ -265,3 +280,13 @@ def test_a_gap_to_a_published_figure_is_qualified_until_our_ddpg_her_reproduces_
         1:2
     ]
     assert "has not reproduced" not in line and "has not run" not in line
+
+
+def test_the_peers_evaluation_starts_differ_across_epochs_and_seeds():
+    import runpy
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "peer_sb3_fetch.py"
+    peer = runpy.run_path(str(script))
+    starts = [s for seed in range(3) for e in range(1, 126) for s in peer["eval_seeds"](seed, e)]
+    assert len(starts) == len(set(starts)) == 3 * 125 * 20
