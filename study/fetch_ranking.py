@@ -12,6 +12,7 @@ import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.methods import get
+from study.claims import seeds
 from study.sections import table
 
 EXPERIMENTS = ("fetch_pick_and_place_sl", "fetch_pick_and_place_pas", "fetch_pick_and_place_her")
@@ -30,11 +31,12 @@ RANKS = (
 def scores(ours) -> dict[str, np.ndarray]:
     """method -> (seeds, epochs) eval success over the first BUDGET env steps, from the
     cells of EXPERIMENTS among `ours`: (label, method, env steps per epoch, (seeds, epochs)
-    success) of the Fetch section's stored cells (a label: its experiment, then any colon)."""
+    success) of the Fetch section's stored cells (a label: its experiment, then any colon).
+    A cell shorter than BUDGET is left out (its mean would cover fewer env steps)."""
     return {
         method: s[:, : BUDGET // per]
         for label, method, per, s in ours
-        if label.split(":")[0] in EXPERIMENTS
+        if label.split(":")[0] in EXPERIMENTS and s.shape[1] * per >= BUDGET
     }
 
 
@@ -65,7 +67,9 @@ def section(found: dict[str, np.ndarray]) -> list[str]:
         "default learner, PAS and MPAS are their own meta-controllers over the same skill "
         f"library, at their default options): the mean eval success over the first "
         f"{BUDGET:,} env steps [95 % interval]. A rank holds when the upper interval lies "
-        "entirely above the lower.",
+        f"entirely above the lower: with {seeds(min(len(s) for s in found.values()))} a "
+        "method, a percentile bootstrap's interval is narrow, so a rank that holds here is "
+        "weak evidence, and between two methods near 0 it says little of either.",
         "",
         *table(["method", "seeds", f"mean success, first {BUDGET:,} env steps"], rows),
         "",

@@ -30,7 +30,7 @@ def test_the_headline_sentence_reads_its_metrics():
     (said,) = fetch_explorer.paragraph([(HEADLINE, cell, _rows())])[1:]
     assert "(eps decaying over epochs 1-30), 0.50 of its training episodes" in said
     assert "succeeded on 0.10 of its evaluations over epochs 26-30" in said
-    assert "the policy reached 0.9 at epoch 35 (the target: epoch 125)" in said
+    assert "the policy reached 0.9 at epoch 35 (the target: epoch 125; 100 gradient" in said
     never = [dict(r, eval_success=0.1) for r in _rows()]
     assert "never reached 0.9" in fetch_explorer.paragraph([(HEADLINE, cell, never)])[1]
 
@@ -60,7 +60,9 @@ def test_the_sentence_names_the_tasks_fast_experiment_and_says_what_it_showed():
         # the same epochs as the DDPG+HER+SL sentence's: those before its explorer stops
         end = cell.run_args(out="", progress=False).full_options()["search"].eps_decay_epochs
         assert f"DDPG+HER+SL+Fast ({fast}, seeds 0-2), succeeds on 0.95 over the same" in said
-        assert f"epochs {end - 4}-{end} and reaches 0.9 at epoch 5." in said
+        assert f"epochs {end - 4}-{end} and reaches 0.9 at epoch 5; it differs in" in said
+        assert "eps decays over 10 epochs to a floor of 0.03, it takes 400 gradient" in said
+        assert "its evaluated policy also acts with the library's skills" in said
         assert "not run yet" not in said
 
 
@@ -94,4 +96,5 @@ def test_a_fast_cell_that_stops_early_says_its_last_epochs_and_no_baseline_is_re
     ]
     (said,) = fetch_explorer.paragraph(found)[1:]
     assert "(headline_fetch_pick_and_place_fast, seeds 100-104), succeeds on 0.95" in said
-    assert "over the same epochs 16-20 and reaches 0.9 at epoch 5." in said
+    assert "over its last epochs 16-20 (it stops at epoch 20) and reaches 0.9 at epoch 5" in said
+    assert "the same epochs" not in said
