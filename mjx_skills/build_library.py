@@ -116,11 +116,13 @@ def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
     """DDPG+HER on the skill's env (resuming an interrupted run in `work`) -> (agent, run dir)."""
     skill = registry.get(name)
     held = config.grasp_held_start_prob if skill.held_training_starts else 0.0
-    previous = work_runs.latest(work, name)
+    epochs = registry.epochs_of(skill, config)
+    previous = work_runs.latest(work, name, epochs)
+    longer = previous is not None and work_runs.planned_epochs(previous) < epochs
     args = RunArgs(
         train=TrainConfig(
             task=name,
-            epochs=registry.epochs_of(skill, config),
+            epochs=epochs,
             seed=config.seed,
             replay_capacity=200_000,
             out=str(work),
@@ -128,6 +130,7 @@ def train_skill(name: str, config: LibraryConfig, work: Path, progress: bool):
         ),
         env=EnvConfig(held_start_prob=held),
         resume=str(previous) if previous else None,
+        extend_to=epochs if longer else None,  # a shorter run trains on to `epochs`
     )
     run_dir, carry = train_and_keep(args)
     work_runs.record(run_dir, name)

@@ -15,15 +15,26 @@ SKILL_RECORD = "skill_env.json"
 """In a skill's training run: {"env": the digest of the env's source that trained it}."""
 
 
-def latest(work: Path, name: str) -> Path | None:
-    """The newest run of skill `name` in `work` trained by its env as it is now, or None
-    (said on stdout where runs exist but none qualifies)."""
+def latest(work: Path, name: str, epochs: int | None = None) -> Path | None:
+    """The newest run of skill `name` in `work` trained by its env as it is now and, given
+    `epochs`, set to train at most that many (a shorter one trains on to `epochs`; a longer
+    one cannot be cut back), or None (said on stdout where runs exist but none qualifies)."""
     runs = sorted((work / name / "ddpg_her").glob("*/config.json")) if work.exists() else []
     digest = registry.env_digest(name)
     same = [run.parent for run in runs if _recorded(run.parent) == digest]
     if runs and not same:
         print(f"{name}: {runs[-1].parent} was trained by another or unrecorded env; training anew")
-    return same[-1] if same else None
+    fits = [run for run in same if epochs is None or planned_epochs(run) <= epochs]
+    if same and not fits:
+        print(
+            f"{name}: {same[-1]} trains {planned_epochs(same[-1])} epochs, more than {epochs}; training anew"
+        )
+    return fits[-1] if fits else None
+
+
+def planned_epochs(run_dir: Path) -> int:
+    """The epochs a skill's training run is set to train (its config.json)."""
+    return int(json.loads((run_dir / "config.json").read_text())["train"]["epochs"])
 
 
 def record(run_dir: Path, name: str) -> None:

@@ -23,8 +23,11 @@ def test_a_build_resumes_only_a_run_of_the_same_skill_env(tmp_path, monkeypatch,
         fresh = work / "transit" / "ddpg_her" / f"run{len(resumed)}"
         run_dir = fresh if args.resume is None else Path(args.resume)
         run_dir.mkdir(parents=True, exist_ok=True)
-        (run_dir / "config.json").write_text("{}")
-        rows = [{"epoch": e, "seed": 0, "eval_success": 0.0} for e in (1, 2)]
+        epochs = args.extend_to or (args.train.epochs if args.resume is None else None)
+        if epochs is not None:
+            (run_dir / "config.json").write_text(json.dumps({"train": {"epochs": epochs}}))
+        epochs = work_runs.planned_epochs(run_dir)
+        rows = [{"epoch": e, "seed": 0, "eval_success": 0.0} for e in range(1, epochs + 1)]
         (run_dir / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
         return run_dir, types.SimpleNamespace(agent={"w": np.zeros((1, 2))})
 
@@ -45,6 +48,36 @@ def test_a_build_resumes_only_a_run_of_the_same_skill_env(tmp_path, monkeypatch,
     (anew / work_runs.SKILL_RECORD).unlink()
     build_library.train_skill("transit", config, work, progress=False)
     assert resumed[-1] is None and "unrecorded" in capsys.readouterr().out
+
+
+def test_a_build_of_more_epochs_trains_the_run_on_and_one_of_fewer_trains_anew(
+    tmp_path, monkeypatch, capsys
+):
+    work, calls = tmp_path / "work", []
+
+    def trained(args):
+        calls.append((args.resume, args.extend_to))
+        run_dir = (
+            Path(args.resume) if args.resume else work / "transit" / "ddpg_her" / f"r{len(calls)}"
+        )
+        run_dir.mkdir(parents=True, exist_ok=True)
+        epochs = args.extend_to or args.train.epochs
+        (run_dir / "config.json").write_text(json.dumps({"train": {"epochs": epochs}}))
+        rows = [{"epoch": e, "seed": 0} for e in range(1, epochs + 1)]
+        (run_dir / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+        return run_dir, types.SimpleNamespace(agent={"w": np.zeros((1, 2))})
+
+    monkeypatch.setattr(build_library, "train_and_keep", trained)
+    first = build_library.train_skill("transit", LibraryConfig(transit_epochs=2), work, False)[1]
+    # 4 epochs: the 2-epoch run trains on (it once stopped at 2 and the build said
+    # 'interrupted', every time it ran)
+    on = build_library.train_skill("transit", LibraryConfig(transit_epochs=4), work, False)[1]
+    assert calls[-1] == (str(first), 4) and on == first
+    assert work_runs.planned_epochs(first) == 4
+    # 3 epochs: the 4-epoch run cannot be cut back, so a new run trains
+    anew = build_library.train_skill("transit", LibraryConfig(transit_epochs=3), work, False)[1]
+    assert calls[-1] == (None, None) and anew != first
+    assert "trains 4 epochs, more than 3; training anew" in capsys.readouterr().out
 
 
 def test_the_push_library_builds_with_still_inputs_left_out_of_its_nets():
