@@ -19,7 +19,7 @@ SEEDS   ?= 1
 OUT     ?= runs
 ARGS    ?=
 
-.PHONY: setup train skills sweep report bench bench-peer test test-fast lint results notebook clean
+.PHONY: setup train resume plot skills sweep report bench bench-peer test test-fast lint results notebook clean
 
 setup: $(STAMP)
 
@@ -35,6 +35,16 @@ $(STAMP): pyproject.toml
 train: setup
 	@if [ "$(METHOD)" != ddpg_her ] && [ ! -f $(LIBRARY)/manifest.json ]; then $(MAKE) skills ROBOT=$(ROBOT) SKILL_LIBRARY=$(SKILL_LIBRARY); fi
 	$(BIN)/python -m mjx_skills.train $(METHOD) $(if $(PRESET),--preset $(PRESET)) --task $(TASK) --epochs $(EPOCHS) --seeds $(SEEDS) --out $(OUT) $(ARGS)
+
+# Go on with an interrupted (or finished, with ARGS="--epochs N") run: make resume RUN=runs/...
+resume: setup
+	@test -n "$(RUN)" || { echo "make resume RUN=RUN_DIR (the run directory train printed)"; exit 2; }
+	$(BIN)/python -m mjx_skills.train --resume $(RUN) $(ARGS)
+
+# A run's learning curve (eval success over env steps): make plot RUN=runs/... -> RUN/curve.png
+plot: setup
+	@test -n "$(RUN)" || { echo "make plot RUN=RUN_DIR"; exit 2; }
+	$(BIN)/python -m mjx_skills.plot $(RUN) $(ARGS)
 
 # Train transit / grasp / transfer, collect their data, fit their models.
 # ROBOT=fetch builds the same skills on Fetch into experiments/skill_library_fetch;

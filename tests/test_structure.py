@@ -108,7 +108,7 @@ def _layer(module: str) -> int:
         return -1
     if parts[1] in LAYERS:
         return LAYERS.index(parts[1])
-    return len(LAYERS)  # a command: train, build_library, sweep, evaluate, render
+    return len(LAYERS)  # a command: train, build_library, sweep, evaluate, render, plot
 
 
 def test_layers_import_one_way():
@@ -126,7 +126,16 @@ def test_layers_import_one_way():
     commands = {m for m in paths if _layer(m) == len(LAYERS)}
     assert commands == {
         f"mjx_skills.{c}"
-        for c in ("train", "build_library", "sweep", "evaluate", "render", "cli_args", "api")
+        for c in (
+            "train",
+            "build_library",
+            "sweep",
+            "evaluate",
+            "render",
+            "plot",
+            "cli_args",
+            "api",
+        )
     }
 
 

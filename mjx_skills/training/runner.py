@@ -184,6 +184,11 @@ def train_and_keep(args: RunArgs, stop_after: int | None = None) -> tuple[Path, 
         run_dir = new_run_dir(args)
         save_library(run_dir, args)
         save_config(run_dir, args)
+        print(
+            f"run directory: {run_dir} (metrics.jsonl grows an epoch at a time; Ctrl-C stops "
+            f"after the epoch in flight and saves it; --resume {run_dir} goes on)",
+            file=sys.stderr,
+        )
     cfg = args.train
     env, _, epoch_fn, carry = build(args.method, cfg, args.env, options, aux)
     checkpoints = Checkpoints(run_dir / "checkpoints")
