@@ -237,7 +237,10 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
         f"first reaches {LEVEL} (evaluation episodes not counted), and the last-5 mean [95 % "
         "interval]. Each experiment's file says its settings.",
         "",
-        *table(["task", "experiment", "seeds", f"env steps to {LEVEL}", "last 5 epochs"], rows),
+        *table(
+            ["task", "experiment", "seeds", f"env steps to {LEVEL}", "last 5 epochs, mean [95 %]"],
+            rows,
+        ),
         "",
         f"Published DDPG+HER figures: env steps until the mean success first reaches {LEVEL}, "
         "read from the sources' plots (how: the data file's header).",
@@ -264,7 +267,7 @@ def section(figure_path: Path, draw: bool = True) -> list[str]:
             ),
             "",
             *table(
-                ["task", "run", "seeds", f"env steps to {LEVEL}", "last 5 epochs"],
+                ["task", "run", "seeds", f"env steps to {LEVEL}", "last 5 epochs, mean [95 %]"],
                 [
                     [ENVS[task], label, f"{len(s)}", _reach(s, per), _last(s)]
                     for label, task, per, s in peers

@@ -20,12 +20,15 @@ def ours(name: str) -> tuple[float, int, int, int] | None:
     """(transitions per env step, batch, updates per cycle, env steps per cycle) of the
     DDPG+HER cell of experiment `name` (a label: its experiment before any colon); None
     for another method or an unknown experiment."""
-    name = name.split(":")[0]
+    from mjx_skills.methods import get
+
+    name, _, method = name.partition(": ")
     if name not in names():
         return None
     exp = load_experiment(name)
-    cell = exp.cells()[0]
-    if cell.method != "ddpg_her":
+    # a label 'EXPERIMENT: METHOD LABEL' names the cell of that method; a bare one, the first
+    cell = next((c for c in exp.cells() if not method or get(c.method).label == method), None)
+    if cell is None or cell.method != "ddpg_her":
         return None
     args = cell.run_args(out="", progress=False)
     batch = args.full_options()["ddpg"].batch_size

@@ -17,6 +17,9 @@ def test_our_budget_is_read_from_the_experiments_config():
     per, *_ = fetch_budget.ours("fetch_push_her_1env: DDPG+HER")
     assert per == 2 * fetch_budget.ours("fetch_push_her")[0]
     assert fetch_budget.ours("fetch_pick_and_place_sl") is None  # not DDPG+HER
+    # a label names its cell's method: PAS's and MPAS's cells of one experiment are not DDPG+HER
+    assert fetch_budget.ours("fetch_pick_and_place_pas: MPAS") is None
+    assert fetch_budget.ours("fetch_push_her_1env: PAS") is None  # no such cell there
     assert fetch_budget.ours("no_such_experiment") is None
 
 
