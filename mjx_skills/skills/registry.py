@@ -192,17 +192,10 @@ _FETCH_PUSH = (
         moves=True,
         epochs="transit_epochs",
     ),
-    Skill(
-        "fetch_push_block",
-        envs.ENVS["fetch_push_block"],
-        _toward_task_goal,
-        moves=True,
-        epochs="transfer_epochs",
-    ),
+    Skill("fetch_push_block", envs.ENVS["fetch_push_block"], _toward_task_goal, moves=True),
 )
 """The push library's skills on Fetch (`envs/fetch_push_skills.py`): approach (transit's
-env, its goals behind the block; `transit_epochs`) and push (`transfer_epochs`, as the skill
-that moves the object to the goal), for FetchPush, whose fingers are blocked."""
+env, its goals behind the block) and push, for FetchPush, whose fingers are blocked."""
 SKILLS: dict[str, Skill] = {skill.name: skill for skill in (*_BUILT_IN, *_FETCH, *_FETCH_PUSH)}
 """Skill name -> its definition, in the order `build_library` builds them."""
 LIBRARIES: dict[str, tuple[str, ...]] = dict(
