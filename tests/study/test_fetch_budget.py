@@ -58,7 +58,10 @@ def test_a_cell_at_the_published_budget_that_falls_short_says_the_budget_does_no
     assert (
         "fetch_push_her_mrl samples the published learner's transitions per env step and " in said
     )
-    assert "still falls short (1 seed;" in said
+    assert "has not reached it so far (1 seed): the gradient budget alone has not closed" in said
+    long = [("fetch_push_her_mrl", 800, np.full((1, 700), 0.5))]  # past the allowance
+    said = fetch_budget.reproduction("FetchPush", long, FIGURE, 0.9)
+    assert "still falls short (1 seed;" in said and "does not explain the gap" in said
 
 
 def test_the_verdict_is_the_published_budgets_cell_not_a_longer_one_at_another_budget():
