@@ -16,6 +16,9 @@ CHECKOUT = Path(__file__).resolve().parents[2]
 
 REFUSED = "[]\\"
 """Characters orbax reads as glob syntax in a path (spaces, non-ASCII, `%#?*` work)."""
+REFUSED_RUNS = ("**",)
+"""Runs of characters orbax's glob refuses in a path (etils: "Recursive `**` pattern not
+supported"; a single `*` works)."""
 
 
 def check_writable_path(path: str | Path, what: str = "--out") -> Path:
@@ -25,7 +28,9 @@ def check_writable_path(path: str | Path, what: str = "--out") -> Path:
     if not str(path).strip():
         raise ValueError(f"{what}: an empty path; give a directory")
     full = Path(path).expanduser().resolve()
-    bad = sorted({c for c in str(full) if c in REFUSED})
+    bad = sorted({c for c in str(full) if c in REFUSED}) + [
+        r for r in REFUSED_RUNS if r in str(full)
+    ]
     if bad:
         raise ValueError(
             f"{what} {full}: a path holding {' '.join(map(repr, bad))} cannot be used (orbax, "
