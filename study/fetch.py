@@ -19,7 +19,7 @@ from mjx_skills.sweeps.cell import Cell
 from mjx_skills.sweeps.experiment_file import names
 from mjx_skills.sweeps.experiments import load_experiment
 from study import fetch_explorer, fetch_ranking
-from study.claims import ci, seeds
+from study.claims import seeds
 from study.fetch_claims import ENVS, LEVEL, fresh, library_used, published, shortfalls
 from study.fetch_library import library_tables
 from study.sections import table
@@ -172,8 +172,8 @@ def peer_comparison(ours, peers, keep=fresh) -> list[str]:
         if not mine:
             continue
         text = "; ".join(
-            f"{n} {ci(stats.summarize(s[:, :k]).last)} ({seeds(len(s))}) against "
-            f"{ci(stats.summarize(theirs[:, :k]).last)}, up to {k * per:,} env steps"
+            f"{n} {_last(s[:, :k])} ({seeds(len(s))}) against "
+            f"{_last(theirs[:, :k])}, up to {k * per:,} env steps"
             for n, s in mine
             for k in [min(s.shape[1], theirs.shape[1])]
         )

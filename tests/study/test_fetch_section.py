@@ -72,6 +72,11 @@ def test_a_peer_is_compared_with_our_fresh_cells_up_to_the_shorter_runs_end():
     assert "short 0.12 [0.12, 0.12] (3 seeds) against 0.10 [0.10, 0.10], up to 6,400" in line
     assert "tuned" not in line
     assert fetch.peer_comparison([], [("SB3 X", "fetch_push", 800, theirs)]) == []
+    (one,) = fetch.peer_comparison(
+        [("mine", "fetch_push", 800, ours)], [("SB3 Y", "fetch_push", 800, theirs[:1])],
+        keep=lambda name: True,
+    )
+    assert "against 0.26 (1 seed, no interval), up to 8,000" in one
 
 
 def test_the_fetch_librarys_table_counts_the_env_steps_its_build_took(tmp_path):
