@@ -110,9 +110,40 @@ def report(exp: Experiment, store: Path = cells.STORE) -> list[str]:
         *table(HEADER, rows),
         "",
         f"**Target** ({level} by epoch {epoch}, seeds {seeds}): **{verdict}**. "
-        + _widths(ours, base, at, last, len(ours)),
+        + _widths(ours, base, at, last, len(ours))
+        + ("" if verdict == "met" else " " + plateau(ours, level)),
         *pending,
     ]
+
+
+NEAR = 0.05
+"""How close to a missed target's level the rolling mean must come for `plateau` to
+describe the curve after it."""
+
+
+def plateau(scores: np.ndarray, level: float) -> str:
+    """Where a missed target's curve went, from (seeds, epochs) scores: the epoch at which
+    the 5-epoch rolling mean of the seeds' mean first came within NEAR of `level`, and the
+    range and mean of that rolling mean from there to the last epoch, saying whether `level`
+    lies inside the range or above it; its peak if it never came that close ('' for a run
+    shorter than 5 epochs)."""
+    rolling = stats.rolling_mean(scores.mean(axis=0))
+    near = stats.first_reaching(scores.mean(axis=0), level - NEAR)
+    if near is None:
+        if not len(rolling):
+            return ""
+        top = int(np.argmax(rolling))
+        return f"Its 5-epoch rolling mean peaks at {rolling[top]:.2f} (epoch {top + stats.WINDOW})."
+    after = rolling[near - stats.WINDOW :]
+    low, high = after.min(), after.max()
+    text = (
+        f"Its 5-epoch rolling mean comes within {NEAR} of {level} at epoch {near} and from "
+        f"there to its last epoch ({scores.shape[1]}) stays within [{low:.2f}, {high:.2f}], "
+        f"mean {after.mean():.2f}"
+    )
+    if high < level:
+        return text + f": below {level} throughout."
+    return text + (f": {level} lies inside that band." if low < level else ".")
 
 
 def _widths(ours, base, at, last, n: int) -> str:

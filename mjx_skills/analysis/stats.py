@@ -129,12 +129,17 @@ def improvement(x: np.ndarray, y: np.ndarray, seed: int = 0) -> tuple[float, flo
 def first_reaching(curve: np.ndarray, level: float = 0.9, window: int = WINDOW) -> int | None:
     """First epoch (1-based) whose `window`-epoch rolling mean of `curve` (the seeds' mean
     per epoch) is >= level; None if never. Epochs before the first full window do not count."""
+    hits = np.nonzero(rolling_mean(curve, window) >= level - 1e-9)[0]
+    return int(hits[0]) + window if len(hits) else None
+
+
+def rolling_mean(curve: np.ndarray, window: int = WINDOW) -> np.ndarray:
+    """The `window`-epoch rolling mean of `curve` (epochs,): entry i ends at epoch i + window
+    (1-based); empty for a curve shorter than `window`."""
     curve = np.asarray(curve, dtype=np.float64)
     if len(curve) < window:
-        return None
-    rolling = np.convolve(curve, np.ones(window) / window, mode="valid")
-    hits = np.nonzero(rolling >= level - 1e-9)[0]
-    return int(hits[0]) + window if len(hits) else None
+        return np.zeros(0)
+    return np.convolve(curve, np.ones(window) / window, mode="valid")
 
 
 def reach_interval(

@@ -285,6 +285,7 @@ def test_a_headline_is_reported_against_its_baseline_on_fresh_seeds_only(tmp_pat
     assert "With 6 seeds the IQM intervals are 0.00 (at the target's epoch) and 0.00" in text
     assert "the same learner's last-5 IQM is 0.00 against the headline's 1.00." in text
     assert "the same learner" not in alone and "With 6 seeds" in alone
+    assert "rolling mean" not in text  # a met target needs no account of its curve
     early = dataclasses.replace(head, target={"level": 0.9, "epoch": 3})
     with pytest.raises(ValueError, match="needs a full 5-epoch window"):
         headlines.report(early, store)  # its IQM window would be empty: nan, not a number
@@ -292,6 +293,28 @@ def test_a_headline_is_reported_against_its_baseline_on_fresh_seeds_only(tmp_pat
     stored(tuned, lambda e: 1.0)
     with pytest.raises(ValueError, match="tuning seeds"):
         headlines.stored_scores(tuned, store)
+
+
+def test_a_missed_targets_curve_is_described_after_it_comes_near_the_level():
+    """Two seeds whose mean climbs to 0.86 at epoch 5 and then alternates 0.86 / 0.94: the
+    rolling mean comes within 0.05 of 0.9 there and stays in a
+    band that holds 0.9; a curve stuck at 0.7 after a peak of 0.8 is said to peak."""
+    from study import headlines
+
+    mean = np.array([0.0] * 4 + [0.86] + [0.86, 0.94] * 5 + [0.86])
+    scores = np.stack([mean - 0.02, mean + 0.02])
+    text = headlines.plateau(scores, 0.9)
+    rolling = stats.rolling_mean(mean)
+    near = int(np.nonzero(rolling >= 0.85 - 1e-9)[0][0]) + 5
+    band = rolling[near - 5 :]
+    assert f"comes within 0.05 of 0.9 at epoch {near} " in text
+    assert f"last epoch (16) stays within [{band.min():.2f}, {band.max():.2f}]" in text
+    assert band.min() < 0.9 <= band.max() and text.endswith(": 0.9 lies inside that band.")
+    low = np.stack([np.array([0.0] * 5 + [0.8] * 5 + [0.7] * 10)] * 2)
+    assert headlines.plateau(low, 0.9) == "Its 5-epoch rolling mean peaks at 0.80 (epoch 10)."
+    flat = np.full((2, 12), 0.86)
+    assert headlines.plateau(flat, 0.9).endswith("mean 0.86: below 0.9 throughout.")
+    assert headlines.plateau(np.full((2, 3), 1.0), 0.9) == ""
 
 
 def test_the_iqm_drops_the_outer_quartiles_and_improvement_counts_pairs():
