@@ -133,7 +133,8 @@ def peer_cells(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray]]:
 
 SAME_STARTS = "the same eval starts"
 """The label's note on a peer group evaluated on one fixed set of starts (rows without
-`eval_starts`, from before benchmarks/peer_sb3_fetch.py drew them afresh)."""
+`eval_starts`, from before benchmarks/peer_sb3_fetch.py drew them afresh); such a group is
+left out once the same settings have as many seeds on fresh starts."""
 
 
 def _peer_groups(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray, np.ndarray]]:
@@ -145,7 +146,11 @@ def _peer_groups(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray, np
         settings = (row["task"], row["algo"], tuple(row["net_arch"]), row["batch_size"])
         groups.setdefault((*settings, row.get("eval_starts"), row["steps"]), []).append(row)
     out = []
-    for (task, algo, net, batch, starts, _), rows in groups.items():
+    for (task, algo, net, batch, starts, steps), rows in groups.items():
+        same = (task, algo, net, batch, steps)
+        fresh_seeds = sum(len(r) for k, r in groups.items() if k[4] and (*k[:4], k[5]) == same)
+        if not starts and fresh_seeds >= len(rows):
+            continue  # superseded: as many seeds of the same settings on fresh starts
         rows = sorted(rows, key=_seed)
         curves = [[p["eval_success"] for p in r["curve"]] for r in rows]
         walls = [[p["wall_s"] for p in r["curve"]] for r in rows]

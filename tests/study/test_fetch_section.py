@@ -41,10 +41,17 @@ def test_peer_rows_of_the_same_settings_form_one_run_of_several_seeds(tmp_path):
 def test_peer_rows_evaluated_on_one_fixed_set_of_starts_are_a_run_of_their_own(tmp_path):
     path = tmp_path / "peers.jsonl"
     old = {k: v for k, v in _row(0, [0.05] * 8).items() if k != "eval_starts"}
-    path.write_text("".join(json.dumps(r) + "\n" for r in [old, _row(0, [0.1] * 8)]))
+    older = {**old, "seed": 1}
+    rows = [old, older, _row(0, [0.1] * 8)]
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
     (a, b) = fetch.peer_cells(path)
     assert a[0] == "SB3 DDPG+HER (3 x 256, batch 256, the same eval starts)"
     assert b[0] == "SB3 DDPG+HER (3 x 256, batch 256)"
+    # once as many seeds ran on fresh starts, the fixed-start run is left out
+    rows.append(_row(1, [0.2] * 8))
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    (only,) = fetch.peer_cells(path)
+    assert only[0] == "SB3 DDPG+HER (3 x 256, batch 256)" and only[3].shape == (2, 8)
 
 
 def test_one_seeds_last_five_epochs_are_said_without_an_interval():
@@ -73,7 +80,8 @@ def test_a_peer_is_compared_with_our_fresh_cells_up_to_the_shorter_runs_end():
     assert "tuned" not in line
     assert fetch.peer_comparison([], [("SB3 X", "fetch_push", 800, theirs)]) == []
     (one,) = fetch.peer_comparison(
-        [("mine", "fetch_push", 800, ours)], [("SB3 Y", "fetch_push", 800, theirs[:1])],
+        [("mine", "fetch_push", 800, ours)],
+        [("SB3 Y", "fetch_push", 800, theirs[:1])],
         keep=lambda name: True,
     )
     assert "against 0.26 (1 seed, no interval), up to 8,000" in one
