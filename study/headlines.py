@@ -137,8 +137,8 @@ def plateau(scores: np.ndarray, level: float) -> str:
     after = rolling[near - stats.WINDOW :]
     low, high = after.min(), after.max()
     text = (
-        f"Its 5-epoch rolling mean comes within {NEAR} of {level} at epoch {near} and from "
-        f"there to its last epoch ({scores.shape[1]}) stays within [{low:.2f}, {high:.2f}], "
+        f"The headline's 5-epoch rolling mean of the seeds' mean comes within {NEAR} of {level} at epoch {near} and from "
+        f"there to its last epoch ({scores.shape[1]}) ranges over [{low:.2f}, {high:.2f}], "
         f"mean {after.mean():.2f}"
     )
     if high < level:

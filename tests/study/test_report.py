@@ -307,8 +307,8 @@ def test_a_missed_targets_curve_is_described_after_it_comes_near_the_level():
     rolling = stats.rolling_mean(mean)
     near = int(np.nonzero(rolling >= 0.85 - 1e-9)[0][0]) + 5
     band = rolling[near - 5 :]
-    assert f"comes within 0.05 of 0.9 at epoch {near} " in text
-    assert f"last epoch (16) stays within [{band.min():.2f}, {band.max():.2f}]" in text
+    assert f"comes within 0.05 of 0.9 at epoch {near} " in text and near == 9
+    assert f"last epoch (16) ranges over [{band.min():.2f}, {band.max():.2f}]" in text
     assert band.min() < 0.9 <= band.max() and text.endswith(": 0.9 lies inside that band.")
     low = np.stack([np.array([0.0] * 5 + [0.8] * 5 + [0.7] * 10)] * 2)
     assert headlines.plateau(low, 0.9) == "Its 5-epoch rolling mean peaks at 0.80 (epoch 10)."
