@@ -127,8 +127,9 @@ def plateau(scores: np.ndarray, level: float) -> str:
     range and mean of that rolling mean from there to the last epoch, saying whether `level`
     lies inside the range or above it; its peak if it never came that close ('' for a run
     shorter than 5 epochs)."""
-    rolling = stats.rolling_mean(scores.mean(axis=0))
-    near = stats.first_reaching(scores.mean(axis=0), level - NEAR)
+    curve = scores.mean(axis=0)
+    rolling = stats.rolling_mean(curve)
+    near = stats.first_reaching(curve, level - NEAR)
     if near is None:
         if not len(rolling):
             return ""
@@ -137,8 +138,8 @@ def plateau(scores: np.ndarray, level: float) -> str:
     after = rolling[near - stats.WINDOW :]
     low, high = after.min(), after.max()
     text = (
-        f"The headline's 5-epoch rolling mean of the seeds' mean comes within {NEAR} of {level} at epoch {near} and from "
-        f"there to its last epoch ({scores.shape[1]}) ranges over [{low:.2f}, {high:.2f}], "
+        f"The headline's 5-epoch rolling mean of the seeds' mean comes within {NEAR} of "
+        f"{level} at epoch {near} and from there to its last epoch ({scores.shape[1]}) ranges over [{low:.2f}, {high:.2f}], "
         f"mean {after.mean():.2f}"
     )
     if high < level:
