@@ -138,32 +138,41 @@ left out once the same settings have as many seeds on fresh starts."""
 
 
 def _peer_groups(path: Path = PEERS) -> list[tuple[str, str, int, np.ndarray, np.ndarray]]:
-    """`peer_cells` with each group's (seeds, epochs) wall seconds since its seed started."""
+    """`peer_cells` with each group's (seeds, epochs) wall seconds since its seed started.
+    Rows are grouped by settings (task, algo, networks, batch, env steps), then by eval
+    starts (fresh per epoch, or one fixed set); a seed run twice counts once (its last row).
+    A fixed-start group is left out once its settings have as many distinct seeds on fresh
+    starts."""
     if not path.exists():
         return []
-    groups: dict[tuple, list[dict]] = {}
+    groups: dict[tuple, dict[object, dict[int, dict]]] = {}
     for row in read_jsonl(path, whole=True):
-        settings = (row["task"], row["algo"], tuple(row["net_arch"]), row["batch_size"])
-        groups.setdefault((*settings, row.get("eval_starts"), row["steps"]), []).append(row)
+        settings = (
+            row["task"],
+            row["algo"],
+            tuple(row["net_arch"]),
+            row["batch_size"],
+            row["steps"],
+        )
+        by_starts = groups.setdefault(settings, {})
+        by_starts.setdefault(row.get("eval_starts"), {})[row["seed"]] = row
     out = []
-    for (task, algo, net, batch, starts, steps), rows in groups.items():
-        same = (task, algo, net, batch, steps)
-        fresh_seeds = sum(len(r) for k, r in groups.items() if k[4] and (*k[:4], k[5]) == same)
-        if not starts and fresh_seeds >= len(rows):
-            continue  # superseded: as many seeds of the same settings on fresh starts
-        rows = sorted(rows, key=_seed)
-        curves = [[p["eval_success"] for p in r["curve"]] for r in rows]
-        walls = [[p["wall_s"] for p in r["curve"]] for r in rows]
-        per_epoch = rows[0]["curve"][0]["env_steps"]
-        name = algo.removeprefix("sb3_").removesuffix("_her").upper()
-        label = f"SB3 {name}+HER ({len(net)} x {net[0]}, batch {batch}"
-        label += ")" if starts else f", {SAME_STARTS})"
-        out.append((label, task, per_epoch, np.asarray(curves, float), np.asarray(walls, float)))
+    for (task, algo, net, batch, _), by_starts in groups.items():
+        fresh_seeds = len({s for starts, rows in by_starts.items() if starts for s in rows})
+        for starts, by_seed in by_starts.items():
+            if not starts and fresh_seeds >= len(by_seed):
+                continue  # superseded: as many seeds of the same settings on fresh starts
+            rows = [by_seed[s] for s in sorted(by_seed)]
+            curves = [[p["eval_success"] for p in r["curve"]] for r in rows]
+            walls = [[p["wall_s"] for p in r["curve"]] for r in rows]
+            per_epoch = rows[0]["curve"][0]["env_steps"]
+            name = algo.removeprefix("sb3_").removesuffix("_her").upper()
+            label = f"SB3 {name}+HER ({len(net)} x {net[0]}, batch {batch}"
+            label += ")" if starts else f", {SAME_STARTS})"
+            out.append(
+                (label, task, per_epoch, np.asarray(curves, float), np.asarray(walls, float))
+            )
     return out
-
-
-def _seed(row: dict) -> int:
-    return row["seed"]
 
 
 def peer_comparison(ours, peers, keep=fresh) -> list[str]:

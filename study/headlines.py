@@ -130,21 +130,30 @@ def plateau(scores: np.ndarray, level: float) -> str:
     curve = scores.mean(axis=0)
     rolling = stats.rolling_mean(curve)
     near = stats.first_reaching(curve, level - NEAR)
+    name = "The headline's 5-epoch rolling mean of the seeds' mean"
     if near is None:
         if not len(rolling):
             return ""
         top = int(np.argmax(rolling))
-        return f"Its 5-epoch rolling mean peaks at {rolling[top]:.2f} (epoch {top + stats.WINDOW})."
+        return f"{name} peaks at {rolling[top]:.2f} (epoch {top + stats.WINDOW})."
     after = rolling[near - stats.WINDOW :]
     low, high = after.min(), after.max()
     text = (
-        f"The headline's 5-epoch rolling mean of the seeds' mean comes within {NEAR} of "
-        f"{level} at epoch {near} and from there to its last epoch ({scores.shape[1]}) ranges over [{low:.2f}, {high:.2f}], "
-        f"mean {after.mean():.2f}"
+        f"{name} comes within {NEAR} of {level} at epoch {near} and from there to its last "
+        f"epoch ({scores.shape[1]}) ranges over [{_beside(low, level)}, {_beside(high, level)}], "
+        f"mean {_beside(after.mean(), level)}"
     )
     if high < level:
         return text + f": below {level} throughout."
     return text + (f": {level} lies inside that band." if low < level else ".")
+
+
+def _beside(value: float, level: float) -> str:
+    """`value` at 2 decimals, or at 3 where 2 would round it onto the other side of `level`
+    or onto it (0.897 beside 0.9 reads 0.897, not 0.90)."""
+    two = f"{value:.2f}"
+    crosses = (value < level) != (float(two) < level)
+    return f"{value:.3f}" if crosses else two
 
 
 def _widths(ours, base, at, last, n: int) -> str:

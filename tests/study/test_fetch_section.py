@@ -54,6 +54,17 @@ def test_peer_rows_evaluated_on_one_fixed_set_of_starts_are_a_run_of_their_own(t
     assert only[0] == "SB3 DDPG+HER (3 x 256, batch 256)" and only[3].shape == (2, 8)
 
 
+def test_a_seed_run_twice_counts_once_and_its_last_run_is_kept(tmp_path):
+    path = tmp_path / "peers.jsonl"
+    old = {k: v for k, v in _row(0, [0.05] * 8).items() if k != "eval_starts"}
+    rows = [old, {**old, "seed": 1}, _row(0, [0.1] * 8), _row(0, [0.3] * 8)]
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    # two rows on fresh starts but one seed: the two fixed-start seeds stay
+    (fixed, fresh) = fetch.peer_cells(path)
+    assert fixed[0].endswith("the same eval starts)") and fixed[3].shape == (2, 8)
+    np.testing.assert_array_equal(fresh[3], [[0.3] * 8])  # seed 0's rerun
+
+
 def test_one_seeds_last_five_epochs_are_said_without_an_interval():
     assert fetch._last(np.full((1, 10), 0.5)) == "0.50 (1 seed, no interval)"
     assert fetch._last(np.tile([[0.4], [0.6]], 10)) == "0.50 [0.40, 0.60]"

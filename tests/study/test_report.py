@@ -298,7 +298,8 @@ def test_a_headline_is_reported_against_its_baseline_on_fresh_seeds_only(tmp_pat
 def test_a_missed_targets_curve_is_described_after_it_comes_near_the_level():
     """Two seeds whose mean climbs to 0.86 at epoch 5 and then alternates 0.86 / 0.94: the
     rolling mean first comes within 0.05 of 0.9 at epoch 9 (epochs 5-9: 4.46 / 5 = 0.892)
-    and then ranges over [0.892, 0.908], a band that holds 0.9; a curve stuck at 0.7 after a
+    and then ranges over [0.892, 0.908], mean 0.898 (a third decimal where two would read
+    0.90), a band that holds 0.9; a curve stuck at 0.7 after a
     peak of 0.8 is said to peak."""
     from study import headlines
 
@@ -310,13 +311,23 @@ def test_a_missed_targets_curve_is_described_after_it_comes_near_the_level():
     band = rolling[near - 5 :]
     assert f"comes within 0.05 of 0.9 at epoch {near} " in text and near == 9
     assert f"last epoch (16) ranges over [{band.min():.2f}, {band.max():.2f}]" in text
-    assert "last epoch (16) ranges over [0.89, 0.91], mean 0.90: 0.9 lies inside" in text
+    assert "last epoch (16) ranges over [0.89, 0.91], mean 0.898: 0.9 lies inside" in text
     assert band.min() < 0.9 <= band.max() and text.endswith(": 0.9 lies inside that band.")
     low = np.stack([np.array([0.0] * 5 + [0.8] * 5 + [0.7] * 10)] * 2)
-    assert headlines.plateau(low, 0.9) == "Its 5-epoch rolling mean peaks at 0.80 (epoch 10)."
+    assert headlines.plateau(low, 0.9) == (
+        "The headline's 5-epoch rolling mean of the seeds' mean peaks at 0.80 (epoch 10)."
+    )
     flat = np.full((2, 12), 0.86)
     assert headlines.plateau(flat, 0.9).endswith("mean 0.86: below 0.9 throughout.")
     assert headlines.plateau(np.full((2, 3), 1.0), 0.9) == ""
+    # rolling 0.84 at epoch 5, then 1.0: the band from where it came near is wholly above
+    jump = np.stack([np.array([0.2] + [1.0] * 9)] * 2)
+    assert headlines.plateau(jump, 0.9).endswith("epoch (10) ranges over [1.00, 1.00], mean 1.00.")
+    # 0.897 would print as 0.90 beside "below 0.9": it keeps a third decimal
+    under = np.full((2, 12), 0.897)
+    assert headlines.plateau(under, 0.9).endswith(
+        "ranges over [0.897, 0.897], mean 0.897: below 0.9 throughout."
+    )
 
 
 def test_the_iqm_drops_the_outer_quartiles_and_improvement_counts_pairs():
