@@ -11,7 +11,8 @@ import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.envs.registry import ENVS
-from mjx_skills.sweeps.experiment_file import names
+from mjx_skills.sweeps.cells import differences
+from mjx_skills.sweeps.experiment_file import names, parent
 from mjx_skills.sweeps.experiments import load_experiment
 from study.claims import seeds
 
@@ -20,22 +21,52 @@ def ours(name: str) -> tuple[float, int, int, int] | None:
     """(transitions per env step, batch, updates per cycle, env steps per cycle) of the
     DDPG+HER cell of experiment `name` (a label: its experiment before any colon); None
     for another method or an unknown experiment."""
-    from mjx_skills.methods import get
-
-    name, _, method = name.partition(": ")
-    if name not in names():
+    args = _cell_args(name)
+    if args is None:
         return None
-    exp = load_experiment(name)
-    # a label 'EXPERIMENT: METHOD LABEL' names the cell of that method; a bare one, the first
-    cell = next((c for c in exp.cells() if not method or get(c.method).label == method), None)
-    if cell is None or cell.method != "ddpg_her":
-        return None
-    args = cell.run_args(out="", progress=False)
     batch = args.full_options()["ddpg"].batch_size
-    length = args.env.episode_length or ENVS[cell.task].default_episode_length
+    length = args.env.episode_length or ENVS[args.train.task].default_episode_length
     steps = args.train.envs * length  # one cycle: an episode of each env, then the updates
     updates = args.train.updates_per_cycle
     return batch * updates / steps, batch, updates, steps
+
+
+def _cell_args(label: str):
+    """RunArgs of the DDPG+HER cell of experiment `label` (a label 'EXPERIMENT: METHOD
+    LABEL' names the cell of that method; a bare one, the first); None for another method or
+    an unknown experiment."""
+    from mjx_skills.methods import get
+
+    name, _, method = label.partition(": ")
+    if name not in names():
+        return None
+    exp = load_experiment(name)
+    cell = next((c for c in exp.cells() if not method or get(c.method).label == method), None)
+    if cell is None or cell.method != "ddpg_her":
+        return None
+    return cell.run_args(out="", progress=False)
+
+
+UNSAID = ("train.epochs", "train.seeds")
+"""Config fields `unlike` leaves out: the budget and seeds, which each entry states."""
+
+
+def unlike(name: str, names_: set[str]) -> str:
+    """'; as PARENT but FIELD VALUE, ...': how DDPG+HER cell `name`'s config differs from the
+    experiment it extends, where that one is among `names_` (the cells said beside it), its
+    budget and seeds left out; '' otherwise."""
+    base = parent(name.partition(": ")[0]) if name.partition(": ")[0] in names() else None
+    if base not in names_:
+        return ""
+    from mjx_skills.training.runner import config_dict
+
+    mine, theirs_ = _cell_args(name), _cell_args(base)
+    if mine is None or theirs_ is None:
+        return ""
+    diff = differences(config_dict(theirs_), config_dict(mine))
+    said = [d.partition(": ") for d in diff if d.partition(": ")[0] not in UNSAID]
+    fields = [f"{k.removeprefix('options.')} {v.partition(' != ')[2]}" for k, _, v in said]
+    return f"; as {base} but {', '.join(fields)}" if fields else ""
 
 
 def theirs(figure: dict) -> float | None:
@@ -96,12 +127,14 @@ def reproduction(env: str, mine: list, figure: dict, level: float) -> str:
         return ""
     published = theirs(figure)
     parts = []
+    said = {m[0] for m in plain} | set(repeated)
     for name, per, s, (transitions, *_) in plain:
         hit = stats.first_reaching(s.mean(axis=0), level)
         where = f"reaches {level} at {hit * per:,}" if hit is not None else f"never {level}"
         again = [short for short, long in repeated.items() if long == name]
         parts.append(
-            f"{name} ({seeds(len(s))}, {transitions:.0f} transitions per env step) ends at a "
+            f"{name} ({seeds(len(s))}, {transitions:.0f} transitions per env step"
+            f"{unlike(name, said)}) ends at a "
             f"last-5 mean of {stats.summarize(s).last[0]:.2f} after {s.shape[1] * per:,} env "
             f"steps ({where}"
             + "".join(f"; its first epochs repeat {short}'s bit for bit" for short in again)

@@ -42,6 +42,12 @@ def names() -> list[str]:
     return sorted(p.stem for p in EXPERIMENTS.glob("*.toml"))
 
 
+def parent(name: str) -> str | None:
+    """The experiment NAME.toml extends (its own `extends` key), or None."""
+    own = tomllib.loads((EXPERIMENTS / f"{name}.toml").read_text())
+    return own.get("extends")
+
+
 def merged(base: dict[str, Any], own: dict[str, Any]) -> dict[str, Any]:
     """`base` with `own` over it, tables merged key by key (a new dict)."""
     out = dict(base)

@@ -107,3 +107,24 @@ def test_a_cell_past_the_allowance_without_the_level_is_not_reproduced():
     long = [("fetch_push_her_mrl", 800, np.full((1, 700), 0.5))]  # 560,000 > 1.5 x 350,000
     said = fetch_budget.reproduction("FetchPush", long, FIGURE, 0.9)
     assert "Not reproduced: fetch_push_her_mrl (1 seed) ran 560,000 env steps, 1.5 times" in said
+
+
+def test_a_cell_beside_the_one_its_experiment_extends_says_what_it_changes():
+    # fetch_push_her_mrl_ln extends fetch_push_her_mrl and sets LayerNorm on, nothing else
+    beside = {"fetch_push_her_mrl"}
+    assert fetch_budget.unlike("fetch_push_her_mrl_ln", beside) == (
+        "; as fetch_push_her_mrl but ddpg.layer_norm True"
+    )
+    eight = fetch_budget.unlike("fetch_push_her_mrl_8env", {"fetch_push_her_mrl_ln"})
+    assert eight == (
+        "; as fetch_push_her_mrl_ln but train.cycles 2, train.envs 8, train.updates_per_cycle 200"
+    )  # its 300 epochs (450 there) are said in its entry, not here
+    assert fetch_budget.unlike("fetch_push_her_mrl_ln", {"fetch_push_her"}) == ""  # not beside
+    assert fetch_budget.unlike("fetch_her", {"fetch_push_her"}) == ""  # extends nothing
+    short = np.full((1, 450), 0.5)
+    mine = [("fetch_push_her_mrl", 800, short), ("fetch_push_her_mrl_ln", 800, short + 0.1)]
+    said = fetch_budget.reproduction("FetchPush", mine, FIGURE, 0.9)
+    assert (
+        "fetch_push_her_mrl_ln (1 seed, 1000 transitions per env step; as fetch_push_her_mrl"
+        in said
+    )
