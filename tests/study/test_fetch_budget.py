@@ -118,7 +118,7 @@ def test_a_cell_beside_the_one_its_experiment_extends_says_what_it_changes():
     eight = fetch_budget.unlike("fetch_push_her_mrl_8env", {"fetch_push_her_mrl_ln"})
     assert eight == (
         "; as fetch_push_her_mrl_ln but train.cycles 2, train.envs 8, train.updates_per_cycle 200"
-    )  # its 300 epochs (450 there) are said in its entry, not here
+    )  # its 250 epochs (450 there) are said in its entry, not here
     assert fetch_budget.unlike("fetch_push_her_mrl_ln", {"fetch_push_her"}) == ""  # not beside
     assert fetch_budget.unlike("fetch_her", {"fetch_push_her"}) == ""  # extends nothing
     short = np.full((1, 450), 0.5)
