@@ -148,6 +148,7 @@ def reproduction(env: str, mine: list, figure: dict, level: float) -> str:
         + "; ".join(parts)
         + ". "
         + _verdict(judged, figure["env_steps"], level)
+        + (f" The published learner: {figure['learner']}." if "learner" in figure else "")
     )
     if _reproduced(judged, figure["env_steps"], level):
         return line

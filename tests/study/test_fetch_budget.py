@@ -128,3 +128,12 @@ def test_a_cell_beside_the_one_its_experiment_extends_says_what_it_changes():
         "fetch_push_her_mrl_ln (1 seed, 1000 transitions per env step; as fetch_push_her_mrl"
         in said
     )
+
+
+def test_the_published_learners_settings_follow_the_verdict_where_the_data_file_gives_them():
+    mine = [("fetch_push_her_mrl", 800, np.full((1, 450), 0.5))]
+    said = fetch_budget.reproduction("FetchPush", mine, {**FIGURE, "learner": "3 x 512"}, 0.9)
+    assert said.split("(the allowance, 1.5 times, runs to 525,000).")[1].startswith(
+        " The published learner: 3 x 512."
+    )
+    assert "published learner:" not in fetch_budget.reproduction("FetchPush", mine, FIGURE, 0.9)
