@@ -200,7 +200,8 @@ def test_the_paired_comparison_differences_each_seeds_last_five_and_checks_the_t
 def test_published_figures_carry_their_sources():
     """study/published/fetch_her.toml: every figure names its source, a link to the plot it
     was read from and that repository's commit, the env with its version, the method and its
-    setting, and a level and env steps that can be set beside ours."""
+    setting, and a level and env steps that can be set beside ours; the learner's gradient
+    budget and settings where the source gives them."""
     import re
     import tomllib
     from pathlib import Path
@@ -211,7 +212,9 @@ def test_published_figures_carry_their_sources():
     for f in figures:
         keys = {"source", "url", "commit", "env", "method", "setting", "level", "env_steps"}
         learner = {"batch_size", "env_steps_per_update"}  # the gradient budget, both or none
-        assert set(f) in (keys, keys | learner), f
+        # `learner` (the published learner's settings in words) only beside its budget
+        assert set(f) - {"learner"} in (keys, keys | learner), f
+        assert "learner" not in f or learner <= set(f), f
         assert all(f.get(k, 1) >= 1 for k in learner), f
         assert f["url"].startswith("https://github.com/") and f["url"].endswith(".png")
         assert re.fullmatch(r"[0-9a-f]{7,40}", f["commit"])
