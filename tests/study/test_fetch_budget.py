@@ -137,3 +137,28 @@ def test_the_published_learners_settings_follow_the_verdict_where_the_data_file_
         " The published learner: 3 x 512."
     )
     assert "published learner:" not in fetch_budget.reproduction("FetchPush", mine, FIGURE, 0.9)
+
+
+def test_published_figures_carry_their_sources():
+    """study/published/fetch_her.toml: every figure names its source, a link to the plot it
+    was read from and that repository's commit, the env with its version, the method and its
+    setting, and a level and env steps that can be set beside ours; the learner's gradient
+    budget and settings where the source gives them."""
+    import re
+    import tomllib
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "study" / "published" / "fetch_her.toml"
+    figures = tomllib.loads(path.read_text())["figure"]
+    assert figures
+    for f in figures:
+        keys = {"source", "url", "commit", "env", "method", "setting", "level", "env_steps"}
+        learner = {"batch_size", "env_steps_per_update"}  # the gradient budget, both or none
+        # `learner` (the published learner's settings in words) only beside its budget
+        assert set(f) - {"learner"} in (keys, keys | learner), f
+        assert "learner" not in f or learner <= set(f), f
+        assert all(f.get(k, 1) >= 1 for k in learner), f
+        assert f["url"].startswith("https://github.com/") and f["url"].endswith(".png")
+        assert re.fullmatch(r"[0-9a-f]{7,40}", f["commit"])
+        assert re.fullmatch(r"Fetch(Reach|Push|Slide|PickAndPlace)-v\d", f["env"])
+        assert 0 < f["level"] <= 1 and 0 < f["env_steps"] <= 10_000_000
