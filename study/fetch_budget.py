@@ -55,7 +55,8 @@ def unlike(name: str, names_: set[str]) -> str:
     """'; as PARENT but FIELD VALUE, ...': how DDPG+HER cell `name`'s config differs from the
     experiment it extends, where that one is among `names_` (the cells said beside it), its
     budget and seeds left out; '' otherwise."""
-    base = parent(name.partition(": ")[0]) if name.partition(": ")[0] in names() else None
+    experiment = name.partition(": ")[0]
+    base = parent(experiment) if experiment in names() else None
     if base not in names_:
         return ""
     from mjx_skills.training.runner import config_dict

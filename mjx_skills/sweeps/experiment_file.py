@@ -43,9 +43,22 @@ def names() -> list[str]:
 
 
 def parent(name: str) -> str | None:
-    """The experiment NAME.toml extends (its own `extends` key), or None."""
-    own = tomllib.loads((EXPERIMENTS / f"{name}.toml").read_text())
-    return own.get("extends")
+    """The experiment NAME.toml extends (its own `extends` key), or None. ValueError as
+    `raw`'s for an unknown name or invalid TOML."""
+    return _own(name).get("extends")
+
+
+def _own(name: str, chain: tuple[str, ...] = ()) -> dict[str, Any]:
+    """NAME.toml's own keys, as written. ValueError naming the file for an unknown name
+    (and the experiment that extends it, the last of `chain`) or invalid TOML."""
+    path = EXPERIMENTS / f"{name}.toml"
+    if not path.exists():
+        where = f" (extended by {chain[-1]})" if chain else ""
+        raise ValueError(f"unknown experiment {name!r}{where}; valid: {', '.join(names())}")
+    try:
+        return tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise ValueError(f"{path} is not valid TOML: {err}") from None
 
 
 def merged(base: dict[str, Any], own: dict[str, Any]) -> dict[str, Any]:
@@ -63,13 +76,7 @@ def raw(name: str, chain: tuple[str, ...] = ()) -> dict[str, Any]:
     """NAME.toml's keys with its `extends` chain merged in. ValueError naming the file for an
     unknown name, invalid TOML or a loop of `extends`."""
     path = EXPERIMENTS / f"{name}.toml"
-    if not path.exists():
-        where = f" (extended by {chain[-1]})" if chain else ""
-        raise ValueError(f"unknown experiment {name!r}{where}; valid: {', '.join(names())}")
-    try:
-        own = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as err:
-        raise ValueError(f"{path} is not valid TOML: {err}") from None
+    own = _own(name, chain)
     parent = own.pop("extends", None)
     unset = own.pop("unset", [])
     if parent is None:
