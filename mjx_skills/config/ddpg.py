@@ -49,6 +49,14 @@ class DDPGConfig:
     of the episode ('episode'), or no relabelling ('none')."""
     relabel_prob: float = 0.8
     """Share of sampled transitions whose goal is relabelled (future k = 4 -> 0.8)."""
+    warm_up: int = 0
+    """No gradient step until the replay holds more than this many transitions (mrl's
+    warm_up, 5000 in its Fetch benchmark); the normalisers see every episode either way.
+    0: updates from the first cycle, as the thesis."""
+    future_warm_up: int = 0
+    """While the replay holds fewer transitions than this, every sampled goal is relabelled
+    (mrl's future_warm_up, 25,000 in its Fetch benchmark), then a `relabel_prob` share.
+    0: `relabel_prob` from the start, as the thesis."""
     n_step: int = 1
     """Critic targets from n-step returns (`her.sample_batch`); 1: one-step TD, the thesis's."""
     critics: int = 1
@@ -71,4 +79,11 @@ class DDPGConfig:
         _check(0.0 <= self.random_eps <= 1.0, "random_eps", "must lie in [0, 1]")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         _check(self.norm_eps > 0, "norm_eps", "must be > 0 (the floor of a std)")
+        for name in ("warm_up", "future_warm_up"):
+            _check(getattr(self, name) >= 0, name, "must be >= 0 (transitions in the replay)")
+        _check(
+            self.her_strategy != "none" or not self.future_warm_up,
+            "future_warm_up",
+            "relabels goals: needs a her_strategy other than 'none'",
+        )
         _check(self.architecture == "mlp" or len(self.hidden) > 1, "hidden", "deep_sets: >= 2")

@@ -27,6 +27,12 @@ class TrainConfig:
     updates_per_cycle: int = 100
     """Gradient steps after each cycle's episodes (original code: 40 x 20 cycles; 100 x 4
     learned transit fastest here)."""
+    random_steps: int = 0
+    """Env steps at the start of training whose executed actions are uniform random in
+    [-1, 1] instead of the method's (mrl's initial_explore, 10,000 in its Fetch benchmark;
+    SB3's learning_starts acts so too), counted per cycle: a cycle that starts below it is
+    random throughout. The method's behaviour still runs beside, so its records (skill
+    calls) count as if it had acted. 0: none, as the thesis."""
     eval_episodes: int = 20
     """Evaluation episodes per epoch with the frozen deterministic policy (thesis: 20)."""
     replay_capacity: int = 1_000_000
@@ -46,6 +52,7 @@ class TrainConfig:
         check_numbers(self)
         _check(bool(self.task), "task", "must name an env")
         _check(bool(self.wandb_project), "wandb_project", "must name a W&B project")
+        _check(0 <= self.random_steps <= 2**30, "random_steps", "must lie in [0, 2**30] env steps")
         _check(self.seeds < SEED_LIMIT, "seeds", "must be < 2**32 (32-bit keys)")
         _check(self.seed + self.seeds <= SEED_LIMIT, "seed", "seed + seeds over 2**32 (keys)")
         for name in (

@@ -39,12 +39,13 @@ def sample_batch(
     batch_size: int,
     compute_reward: RewardFn,
     strategy: str,
-    relabel_prob: float,
+    relabel_prob: float | jax.Array,
     with_index: bool = False,
     n_step: int = 1,
     gamma: float = 1.0,
 ) -> dict[str, jax.Array]:
-    """Sample `batch_size` transitions and relabel a `relabel_prob` share of their goals.
+    """Sample `batch_size` transitions and relabel a `relabel_prob` share of their goals
+    (a float, or a traced () float32).
 
     Returns obs / next_obs (B, obs_dim), goal / ag / next_ag (B, goal_dim), action
     (B, act_dim) and reward (B,) = compute_reward(next_ag, goal), recomputed for every

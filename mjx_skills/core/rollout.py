@@ -90,6 +90,19 @@ def stateless(policy: Policy) -> Behaviour:
     return Behaviour(init=lambda key, n: (), step=step)
 
 
+def random_actions(behaviour: Behaviour, on: jax.Array) -> Behaviour:
+    """`behaviour` whose actions are uniform random in [-1, 1] where `on` (() bool) holds:
+    it still steps, so its memory and records go on as if it had acted."""
+
+    def step(pstate, key, env_state):
+        k_own, k_random = jax.random.split(key)
+        pstate, action, record = behaviour.step(pstate, k_own, env_state)
+        random = jax.random.uniform(k_random, action.shape, action.dtype, -1.0, 1.0)
+        return pstate, jnp.where(on, random, action), record
+
+    return Behaviour(init=behaviour.init, step=step)
+
+
 def run_episodes(
     env: GoalEnv, behaviour: Behaviour, key: jax.Array, n: int
 ) -> tuple[Episode, Any, dict[str, jax.Array]]:

@@ -77,7 +77,10 @@ class Method:
             for path, switch in self.unread_unless.items()
             if not getattr(options[path.split(".")[0]], switch)
         }
-        instead = {path: f"it reads {flag} instead" for path, flag in self.unread.items()}
+        instead = {
+            path: f"it reads {why} instead" if why.startswith("--") else why
+            for path, why in self.unread.items()
+        }
         return {**instead, **off}
 
 
@@ -95,9 +98,12 @@ PAS_UNREAD = {
     "ddpg.relabel_prob": "--pas.relabel-prob",
     "ddpg.her_strategy": "--pas.hindsight",
     "ddpg.n_step": "--pas.skill-steps",
+    "ddpg.future_warm_up": "--pas.relabel-prob",
+    "ddpg.warm_up": "its meta-controller updates from the first cycle",
 }
 """PAS / MPAS train the meta-controller with their own update count and hindsight; a meta
-transition already spans its skill's env steps (no n-step returns)."""
+transition already spans its skill's env steps (no n-step returns). A value is the flag read
+instead, or why the option is not read."""
 
 
 SEVERAL_CUBES = {

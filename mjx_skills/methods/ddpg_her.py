@@ -58,21 +58,29 @@ def her_update(
     batches are sampled and relabelled up front in a few large gathers. With `demo` (the
     buffer's episodes' (capacity, T) bool: which steps an expert drove) and `bc_weight` > 0,
     the actor also clones the demonstrated steps (`ddpg.q_filtered_bc_loss`), relabelled
-    like every other transition (DDPG+HER+SL+BC)."""
+    like every other transition (DDPG+HER+SL+BC).
+
+    `config.warm_up` > 0: the steps' result is kept only once the replay holds more
+    transitions than that (the normalisers see the episodes either way); `config.
+    future_warm_up` > 0: every goal is relabelled while the replay holds fewer."""
     demo = demo if bc_weight else None
-    agent = ddpg_agent.observe(
+    observed = ddpg_agent.observe(
         agent,
         fresh.obs.reshape(-1, env.obs_dim),
         jnp.concatenate([fresh.g, fresh.ag], axis=1).reshape(-1, env.goal_dim),
     )
     b = config.batch_size
+    stored = buffer.size * buffer.T  # transitions in the replay (its episodes are whole)
+    relabel_prob = config.relabel_prob
+    if config.future_warm_up:
+        relabel_prob = jnp.where(stored < config.future_warm_up, 1.0, relabel_prob)
     batch = her.sample_batch(
         buffer,
         key,
         n_updates * b,
         env.compute_reward,
         config.her_strategy,
-        config.relabel_prob,
+        relabel_prob,
         with_index=demo is not None,
         n_step=config.n_step,
         gamma=config.gamma,
@@ -80,4 +88,8 @@ def her_update(
     if demo is not None:
         batch["demo"] = demo[batch.pop("episode"), batch.pop("step")]
     batches = jax.tree.map(lambda x: x.reshape(n_updates, b, *x.shape[1:]), batch)
-    return ddpg_agent.update(agent, batches, config, bc_weight)
+    agent, metrics = ddpg_agent.update(observed, batches, config, bc_weight)
+    if config.warm_up:
+        ready = stored > config.warm_up
+        agent = jax.tree.map(lambda new, old: jnp.where(ready, new, old), agent, observed)
+    return agent, metrics

@@ -44,6 +44,11 @@ def count_values(count: Any) -> np.ndarray:
     return count[..., 0] * COUNT_BASE + count[..., 1]
 
 
+def count_below(count: jax.Array, n: int) -> jax.Array:
+    """() bool on device: the (2,) counter's value is below n (0 <= n <= 2**30)."""
+    return (count[0] == 0) & (count[1] < n)
+
+
 def host_metrics(metrics: dict[str, Any]) -> dict[str, np.ndarray]:
     """An epoch's metrics on the host: arrays, the counters as int64 values."""
     out = {k: np.asarray(v) for k, v in metrics.items()}
@@ -108,6 +113,9 @@ def make_train_cycles(learner: Learner, env: GoalEnv, train: TrainConfig):
     def cycle(aux, carry: TrainCarry, _):
         key, k_roll, k_upd = jax.random.split(carry.key, 3)
         behaviour = learner.explore(carry.agent, aux, Progress(carry.epoch, carry.success))
+        if train.random_steps:  # static: without it, the behaviour's keys are as they were
+            start = count_below(carry.counters.env_steps, train.random_steps)
+            behaviour = rollout.random_actions(behaviour, start)
         episodes, final, records = rollout.run_episodes(env, behaviour, k_roll, train.envs)
         fresh = learner.store(episodes, records)
         buffer = replay.add(carry.replay, fresh)
