@@ -75,7 +75,10 @@ def _update(config: DDPGConfig, episodes: int = 4):
 
 
 def _same(a, b) -> bool:
-    return all(bool(jnp.array_equal(x, y)) for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b)))
+    return all(
+        bool(jnp.array_equal(x, y))
+        for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True)
+    )
 
 
 @pytest.mark.parametrize("warm_up, trains", [(4 * T, False), (4 * T - 1, True)])
