@@ -11,7 +11,7 @@ import numpy as np
 
 from mjx_skills.analysis import stats
 from mjx_skills.envs.registry import ENVS
-from mjx_skills.sweeps.cells import differences
+from mjx_skills.sweeps.cells import changes
 from mjx_skills.sweeps.experiment_file import names, parent
 from mjx_skills.sweeps.experiments import load_experiment
 from study.claims import seeds
@@ -64,9 +64,8 @@ def unlike(name: str, names_: set[str]) -> str:
     mine, theirs_ = _cell_args(name), _cell_args(base)
     if mine is None or theirs_ is None:
         return ""
-    diff = differences(config_dict(theirs_), config_dict(mine))
-    said = [d.partition(": ") for d in diff if d.partition(": ")[0] not in UNSAID]
-    fields = [f"{k.removeprefix('options.')} {v.partition(' != ')[2]}" for k, _, v in said]
+    diff = changes(config_dict(theirs_), config_dict(mine))
+    fields = [f"{p.removeprefix('options.')} {v!r}" for p, _, v in diff if p not in UNSAID]
     return f"; as {base} but {', '.join(fields)}" if fields else ""
 
 

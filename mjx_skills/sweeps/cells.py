@@ -87,21 +87,28 @@ def defaults(method: str) -> dict[str, Any]:
     return json.loads(json.dumps(raw))
 
 
-def differences(old: Any, new: Any, path: str = "", default: Any = None) -> list[str]:
-    """Dotted paths where two JSON-like values differ, with both values. A key that `old`
-    lacks and `new` holds at its value in `default` (a config field added since `old` was
-    written, at the default that keeps the earlier behaviour) is no difference."""
+def changes(old: Any, new: Any, path: str = "", default: Any = None) -> list[tuple[str, Any, Any]]:
+    """(dotted path, old value, new value) wherever two JSON-like values differ. A key that
+    `old` lacks and `new` holds at its value in `default` (a config field added since `old`
+    was written, at the default that keeps the earlier behaviour) is no difference."""
     if isinstance(old, dict) and isinstance(new, dict):
         default = default if isinstance(default, dict) else {}
         return [
             d
             for k in sorted(set(old) | set(new))
             if k in old or k not in default or new.get(k) != default[k]
-            for d in differences(
-                old.get(k), new.get(k), f"{path}.{k}" if path else k, default.get(k)
-            )
+            for d in changes(old.get(k), new.get(k), f"{path}.{k}" if path else k, default.get(k))
         ]
-    return [] if old == new else [f"{path}: {old!r} != {new!r}"]
+    return [] if old == new else [(path, old, new)]
+
+
+def differences(old: Any, new: Any, path: str = "", default: Any = None) -> list[str]:
+    """`changes` as 'path: old != new' lines, the form refusals print."""
+    return _lines(changes(old, new, path, default))
+
+
+def _lines(diff: list[tuple[str, Any, Any]]) -> list[str]:
+    return [f"{p}: {o!r} != {n!r}" for p, o, n in diff]
 
 
 def _config_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
@@ -112,11 +119,8 @@ def _config_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
 
     old, new = migrate(old), migrate(new)
     unread = _unread(new)
-    return [
-        d
-        for d in differences(old, new, default=defaults(new["method"]))
-        if d.split(":")[0] not in unread
-    ]
+    diff = changes(old, new, default=defaults(new["method"]))
+    return _lines([d for d in diff if d[0] not in unread])
 
 
 def _unread(config: dict[str, Any]) -> set[str]:
