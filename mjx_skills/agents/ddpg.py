@@ -54,6 +54,8 @@ def _actor_module(act_dim: int, bounds: str, config: DDPGConfig, views=None) -> 
         layer_norm=config.layer_norm,
         squash=bounds == "tanh",
         views=views,
+        activation=config.activation,
+        weight_init=config.weight_init,
     )
 
 
@@ -63,6 +65,8 @@ def critic_module(config: DDPGConfig, views=None) -> Critic:
         layer_norm=config.layer_norm,
         ensemble=config.critics,
         views=views,
+        activation=config.activation,
+        weight_init=config.weight_init,
     )
 
 

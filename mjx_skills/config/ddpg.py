@@ -16,6 +16,12 @@ class DDPGConfig:
     """Hidden layer widths of actor and critic (thesis: 3 x 64)."""
     layer_norm: bool = True
     """LayerNorm after each hidden layer (the original code uses it)."""
+    activation: Literal["relu", "gelu"] = "relu"
+    """Hidden-layer activation of actor and critic (`nets.ACTIVATIONS`; mrl's Fetch
+    benchmark: 'gelu')."""
+    weight_init: Literal["lecun", "orthogonal"] = "lecun"
+    """Initialisation of actor and critic (`nets.INITS`): flax's LeCun-normal, or
+    'orthogonal' with output layers scaled by 0.1 (mrl's `layer_init`)."""
     actor_lr: float = 1e-3
     """Adam learning rate of the actor (Table 6.1: 1e-4; 1e-3, as the HER baselines, learned
     transit faster here: docs/methods.md, "Hyperparameters")."""

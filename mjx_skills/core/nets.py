@@ -7,49 +7,77 @@ the same parameters serve single examples, batches and vmapped envs.
 
 from __future__ import annotations
 
+import functools
+
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
+ACTIVATIONS = {"relu": nn.relu, "gelu": functools.partial(nn.gelu, approximate=False)}
+"""Hidden-layer activations by name ('gelu': the exact erf form, PyTorch's default)."""
+INITS = ("lecun", "orthogonal")
+"""Dense initialisations: flax's default ('lecun': LeCun-normal kernels), or 'orthogonal'
+kernels of scale 1 and an output layer of scale 0.1 (mrl's `layer_init`, Pitis et al.);
+biases zero in both."""
 
-def _hidden_layers(x: jax.Array, widths: tuple[int, ...], layer_norm: bool) -> jax.Array:
-    """Dense -> [LayerNorm] -> ReLU per width, made inside the calling module's compact
+
+def _dense(width: int, init: str, scale: float = 1.0) -> nn.Dense:
+    if init == "orthogonal":
+        return nn.Dense(width, kernel_init=nn.initializers.orthogonal(scale))
+    if init != "lecun":
+        raise ValueError(f"unknown init '{init}', expected one of {INITS}")
+    return nn.Dense(width)
+
+
+def _hidden_layers(
+    x: jax.Array, widths: tuple[int, ...], layer_norm: bool, activation: str, init: str
+) -> jax.Array:
+    """Dense -> [LayerNorm] -> activation per width, made inside the calling module's compact
     method (so the layers are its own: Dense_0, LayerNorm_0, ...)."""
     for width in widths:
-        x = nn.Dense(width)(x)
+        x = _dense(width, init)(x)
         if layer_norm:
             x = nn.LayerNorm()(x)
-        x = nn.relu(x)
+        x = ACTIVATIONS[activation](x)
     return x
 
 
 class MLP(nn.Module):
-    """(..., in) -> (..., out_dim): Dense -> [LayerNorm] -> ReLU per hidden layer, then Dense."""
+    """(..., in) -> (..., out_dim): Dense -> [LayerNorm] -> activation per hidden layer, then
+    Dense (`ACTIVATIONS`, `INITS`)."""
 
     hidden: tuple[int, ...]
     layer_norm: bool
     out_dim: int
+    activation: str = "relu"
+    weight_init: str = "lecun"
 
     @nn.compact
     def __call__(self, x: jax.Array) -> jax.Array:
-        x = _hidden_layers(x, self.hidden, self.layer_norm)  # before the last Dense: its name
-        return nn.Dense(self.out_dim)(x)
+        # The hidden layers before the last Dense: its name.
+        x = _hidden_layers(x, self.hidden, self.layer_norm, self.activation, self.weight_init)
+        return _dense(self.out_dim, self.weight_init, 0.1)(x)
 
 
 class DeepSet(nn.Module):
     """(..., n, in) -> (..., out_dim): a set of n elements, each encoded by the same layers
-    (Dense -> [LayerNorm] -> ReLU per width of `hidden` but the last), summed over the set,
-    then an MLP of the last width (Deep Sets, Zaheer et al. 2017): the same output for any
-    order of the elements."""
+    (Dense -> [LayerNorm] -> activation per width of `hidden` but the last), summed over the
+    set, then an MLP of the last width (Deep Sets, Zaheer et al. 2017): the same output for
+    any order of the elements."""
 
     hidden: tuple[int, ...]
     layer_norm: bool
     out_dim: int
+    activation: str = "relu"
+    weight_init: str = "lecun"
 
     @nn.compact
     def __call__(self, x: jax.Array) -> jax.Array:
-        x = _hidden_layers(x, self.hidden[:-1], self.layer_norm)
-        return MLP(self.hidden[-1:], self.layer_norm, self.out_dim)(x.sum(axis=-2))
+        x = _hidden_layers(x, self.hidden[:-1], self.layer_norm, self.activation, self.weight_init)
+        head = MLP(
+            self.hidden[-1:], self.layer_norm, self.out_dim, self.activation, self.weight_init
+        )
+        return head(x.sum(axis=-2))
 
 
 Views = tuple[tuple[int, ...], ...]
@@ -78,15 +106,18 @@ class Actor(nn.Module):
     layer_norm: bool = True
     squash: bool = True
     views: Views | None = None
+    activation: str = "relu"
+    weight_init: str = "lecun"
 
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
-        if self.views is None:
-            out = MLP(self.hidden, self.layer_norm, self.act_dim)(jnp.concatenate([obs, goal], -1))
-        else:
-            out = DeepSet(self.hidden, self.layer_norm, self.act_dim)(
-                object_set(obs, goal, self.views)
-            )
+        net = MLP if self.views is None else DeepSet
+        x = (
+            jnp.concatenate([obs, goal], -1)
+            if self.views is None
+            else object_set(obs, goal, self.views)
+        )
+        out = net(self.hidden, self.layer_norm, self.act_dim, self.activation, self.weight_init)(x)
         return jnp.tanh(out) if self.squash else out
 
 
@@ -100,6 +131,8 @@ class Critic(nn.Module):
     ensemble: int = 1
     views: Views | None = None
     """As the `Actor`'s: a `DeepSet` over (view, its goal, the action) per object."""
+    activation: str = "relu"
+    weight_init: str = "lecun"
 
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array, action: jax.Array) -> jax.Array:
@@ -107,7 +140,8 @@ class Critic(nn.Module):
             x, net = jnp.concatenate([obs, goal, action], axis=-1), MLP
         else:
             x, net = object_set(obs, goal, self.views, action), DeepSet
-        heads = [net(self.hidden, self.layer_norm, 1)(x)[..., 0] for _ in range(self.ensemble)]
+        head = lambda: net(self.hidden, self.layer_norm, 1, self.activation, self.weight_init)  # noqa: E731
+        heads = [head()(x)[..., 0] for _ in range(self.ensemble)]
         return heads[0] if self.ensemble == 1 else jnp.stack(heads, axis=-1)  # MLP_0, MLP_1, ...
 
 

@@ -42,6 +42,7 @@ OUTSIDE = {
     "pas.library_dir": "which library's arrays the program is given",
     "env.physics": "the backend: 'auto' is native on a CPU (tests/envs/test_physics.py)",
     "env.native_threads": "the native backend's host threads",
+    "ddpg.weight_init": "the initial parameters, not the epoch (tests/agents/test_network_options.py)",
 }
 """Options that act outside the traced epoch -> what they do instead."""
 NEEDS = {
