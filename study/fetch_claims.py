@@ -31,9 +31,22 @@ PLAIN = "DDPG w/ HER"
 """The published method our DDPG+HER is set against (not a variant such as HER+FA)."""
 
 
-def published() -> list[dict]:
-    """The published figures, each a dict of the data file's fields."""
-    return tomllib.loads(PUBLISHED.read_text())["figure"]
+def published(text: str | None = None) -> list[dict]:
+    """The published figures, each a dict of the data file's fields (`text`: the file's, by
+    default `PUBLISHED`'s); a figure's `learner` names an entry of the file's `[learners]`
+    table and is given as that entry's text. KeyError for a name the table lacks."""
+    data = tomllib.loads(PUBLISHED.read_text() if text is None else text)
+    learners = data.get("learners", {})
+    figures = []
+    for figure in data["figure"]:
+        name = figure.get("learner")
+        if name is not None and name not in learners:
+            raise KeyError(
+                f"{PUBLISHED.name}: figure {figure['method']!r} on {figure['env']} names learner "
+                f"{name!r}; the [learners] table has {sorted(learners)}"
+            )
+        figures.append(figure | ({"learner": learners[name]} if name else {}))
+    return figures
 
 
 def read_error() -> int:

@@ -4,6 +4,7 @@ transitions per env step read from an experiment's config and from the data file
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from study import fetch_budget
 
@@ -162,3 +163,19 @@ def test_published_figures_carry_their_sources():
         assert re.fullmatch(r"[0-9a-f]{7,40}", f["commit"])
         assert re.fullmatch(r"Fetch(Reach|Push|Slide|PickAndPlace)-v\d", f["env"])
         assert 0 < f["level"] <= 1 and 0 < f["env_steps"] <= 10_000_000
+
+
+def test_a_figures_learner_is_the_text_its_name_has_in_the_learners_table():
+    """The learners' settings stand once in the data file (`[learners]`) and each figure names
+    one; `published` gives the figure that text, and a name the table lacks is a KeyError
+    naming those it has."""
+    from study import fetch_claims
+
+    with_learner = [f for f in fetch_claims.published() if "learner" in f]
+    assert with_learner and all(" x 512" in f["learner"] for f in with_learner)
+    figure = '[[figure]]\nmethod = "m"\nenv = "FetchPush-v4"\nlearner = "{}"\n'
+    table = '[learners]\nmine = "3 x 256, batch 2000"\n\n'
+    (one,) = fetch_claims.published(table + figure.format("mine"))
+    assert one["learner"] == "3 x 256, batch 2000"
+    with pytest.raises(KeyError, match=r"learner 'theirs'.*\['mine'\]"):
+        fetch_claims.published(table + figure.format("theirs"))
