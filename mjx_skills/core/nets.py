@@ -111,12 +111,10 @@ class Actor(nn.Module):
 
     @nn.compact
     def __call__(self, obs: jax.Array, goal: jax.Array) -> jax.Array:
-        net = MLP if self.views is None else DeepSet
-        x = (
-            jnp.concatenate([obs, goal], -1)
-            if self.views is None
-            else object_set(obs, goal, self.views)
-        )
+        if self.views is None:
+            x, net = jnp.concatenate([obs, goal], -1), MLP
+        else:
+            x, net = object_set(obs, goal, self.views), DeepSet
         out = net(self.hidden, self.layer_norm, self.act_dim, self.activation, self.weight_init)(x)
         return jnp.tanh(out) if self.squash else out
 
@@ -140,8 +138,10 @@ class Critic(nn.Module):
             x, net = jnp.concatenate([obs, goal, action], axis=-1), MLP
         else:
             x, net = object_set(obs, goal, self.views, action), DeepSet
-        head = lambda: net(self.hidden, self.layer_norm, 1, self.activation, self.weight_init)  # noqa: E731
-        heads = [head()(x)[..., 0] for _ in range(self.ensemble)]
+        heads = [
+            net(self.hidden, self.layer_norm, 1, self.activation, self.weight_init)(x)[..., 0]
+            for _ in range(self.ensemble)
+        ]
         return heads[0] if self.ensemble == 1 else jnp.stack(heads, axis=-1)  # MLP_0, MLP_1, ...
 
 
