@@ -55,6 +55,11 @@ class DDPGConfig:
     of the episode ('episode'), or no relabelling ('none')."""
     relabel_prob: float = 0.8
     """Share of sampled transitions whose goal is relabelled (future k = 4 -> 0.8)."""
+    relabel_actual: float = 0.0
+    """Further share of sampled transitions whose goal is the desired goal of a transition
+    drawn from the whole replay (mrl's "actual" goals; its Fetch benchmark's
+    'futureactual_2_2' is relabel_prob 0.4, relabel_actual 0.4, the episode's own goal 0.2).
+    0: none, as HER and the thesis. relabel_prob + relabel_actual <= 1."""
     warm_up: int = 0
     """No gradient step until the replay holds more than this many transitions (mrl's
     warm_up, 5000 in its Fetch benchmark); the normalisers see every episode either way.
@@ -84,12 +89,18 @@ class DDPGConfig:
         _check(0.0 < self.tau <= 1.0, "tau", "must lie in (0, 1]")
         _check(0.0 <= self.random_eps <= 1.0, "random_eps", "must lie in [0, 1]")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
+        _check(
+            0.0 <= self.relabel_actual <= 1.0 - self.relabel_prob,
+            "relabel_actual",
+            f"must lie in [0, 1 - relabel_prob] = [0, {1.0 - self.relabel_prob:g}]",
+        )
         _check(self.norm_eps > 0, "norm_eps", "must be > 0 (the floor of a std)")
         for name in ("warm_up", "future_warm_up"):
             _check(getattr(self, name) >= 0, name, "must be >= 0 (transitions in the replay)")
-        _check(
-            self.her_strategy != "none" or not self.future_warm_up,
-            "future_warm_up",
-            "relabels goals: needs a her_strategy other than 'none'",
-        )
+        for name in ("future_warm_up", "relabel_actual"):
+            _check(
+                self.her_strategy != "none" or not getattr(self, name),
+                name,
+                "relabels goals: needs a her_strategy other than 'none'",
+            )
         _check(self.architecture == "mlp" or len(self.hidden) > 1, "hidden", "deep_sets: >= 2")

@@ -43,9 +43,13 @@ def sample_batch(
     with_index: bool = False,
     n_step: int = 1,
     gamma: float = 1.0,
+    actual_prob: float | jax.Array = 0.0,
 ) -> dict[str, jax.Array]:
     """Sample `batch_size` transitions and relabel a `relabel_prob` share of their goals
-    (a float, or a traced () float32).
+    (a float, or a traced () float32) with `strategy`'s achieved goal, and a further
+    `actual_prob` share with the desired goal of a transition drawn uniformly from the
+    whole replay (mrl's "actual" goals, Pitis et al. 2020; a float 0.0, the default, draws
+    nothing and leaves every other draw as it was).
 
     Returns obs / next_obs (B, obs_dim), goal / ag / next_ag (B, goal_dim), action
     (B, act_dim) and reward (B,) = compute_reward(next_ag, goal), recomputed for every
@@ -69,8 +73,14 @@ def sample_batch(
     goal = d.g[ep, t]
     if strategy != "none":
         f = _goal_step(k_goal, t, replay_state.T, strategy)
-        relabel = jax.random.uniform(k_mask, (batch_size,)) < relabel_prob
-        goal = jnp.where(relabel[:, None], d.ag[ep, f], goal)
+        u = jax.random.uniform(k_mask, (batch_size,))
+        if not (isinstance(actual_prob, (int, float)) and actual_prob == 0):
+            other_ep, other_t = replay.sample_indices(
+                replay_state, jax.random.fold_in(key, 1), batch_size
+            )
+            actual = (u >= relabel_prob) & (u < relabel_prob + actual_prob)
+            goal = jnp.where(actual[:, None], d.g[other_ep, other_t], goal)
+        goal = jnp.where((u < relabel_prob)[:, None], d.ag[ep, f], goal)
     batch = {
         "obs": d.obs[ep, t],
         "next_obs": d.obs[ep, t + 1],

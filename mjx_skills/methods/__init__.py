@@ -99,6 +99,7 @@ PAS_UNREAD = {
     "ddpg.her_strategy": "--pas.hindsight",
     "ddpg.n_step": "--pas.skill-steps",
     "ddpg.future_warm_up": "--pas.relabel-prob",
+    "ddpg.relabel_actual": "--pas.relabel-prob",
     "ddpg.warm_up": "its meta-controller updates from the first cycle",
 }
 """PAS / MPAS train the meta-controller with their own update count and hindsight; a meta

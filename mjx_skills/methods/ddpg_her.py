@@ -62,7 +62,8 @@ def her_update(
 
     `config.warm_up` > 0: the steps' result is kept only once the replay holds more
     transitions than that (the normalisers see the episodes either way); `config.
-    future_warm_up` > 0: every goal is relabelled while the replay holds fewer."""
+    future_warm_up` > 0: every goal is relabelled from the future while the replay holds
+    fewer (no `relabel_actual` share then, as mrl)."""
     demo = demo if bc_weight else None
     observed = ddpg_agent.observe(
         agent,
@@ -84,6 +85,7 @@ def her_update(
         with_index=demo is not None,
         n_step=config.n_step,
         gamma=config.gamma,
+        actual_prob=config.relabel_actual,
     )
     if demo is not None:
         batch["demo"] = demo[batch.pop("episode"), batch.pop("step")]

@@ -227,3 +227,37 @@ def test_the_critic_target_discounts_by_the_batch_discount():
     one_step = np.asarray(ddpg.td_target(state, batch, config)) + 1.0  # gamma * Q'
     n_step = np.asarray(ddpg.td_target(state, {**batch, "discount": discount}, config)) + 1.0
     np.testing.assert_allclose(n_step, one_step / 0.9 * np.asarray(discount), rtol=1e-4, atol=1e-6)
+
+
+def test_actual_goals_are_desired_goals_drawn_from_the_whole_replay(buffer):
+    # mrl's 'futureactual_2_2': 0.4 future, 0.4 another transition's desired goal, 0.2 own.
+    batch = her.sample_batch(
+        buffer, jax.random.key(5), N, compute_reward, "future", 0.4, actual_prob=0.4
+    )
+    batch = {k: np.asarray(v) for k, v in batch.items()}
+    ep, t = batch["obs"][:, 0], batch["obs"][:, 1]
+    goal = batch["goal"]
+    future = goal[:, 0] > 0
+    np.testing.assert_array_equal(goal[future, 0], ep[future])
+    assert np.all(goal[future, 1] > t[future])
+    own = ~future & (goal[:, 0] == -ep) & (goal[:, 1] == -t)
+    actual = ~future & ~own
+    # Actual goals are desired goals (-id, -step) of filled slots, at any step.
+    assert np.all(-goal[actual, 0] >= 1) and np.all(-goal[actual, 0] <= N_FILLED)
+    assert set(np.unique(-goal[actual, 1])) == set(range(T))
+    assert abs(future.mean() - 0.4) < 0.03
+    # An actual draw repeats the transition's own (episode, step) 1 time in N_FILLED * T.
+    assert abs(actual.mean() - 0.4 * (1 - 1 / (N_FILLED * T))) < 0.03
+    np.testing.assert_array_equal(
+        batch["reward"], np.asarray(compute_reward(batch["next_ag"], goal))
+    )
+
+
+def test_a_zero_actual_share_leaves_every_draw_as_without_it(buffer):
+    key = jax.random.key(6)
+    without = her.sample_batch(buffer, key, 256, compute_reward, "future", 0.8)
+    traced = jax.jit(
+        lambda p: her.sample_batch(buffer, key, 256, compute_reward, "future", 0.8, actual_prob=p)
+    )(jnp.float32(0.0))
+    for name in without:
+        np.testing.assert_array_equal(np.asarray(without[name]), np.asarray(traced[name]))

@@ -122,3 +122,16 @@ def test_bad_start_settings_name_the_field(field, value):
         make(**{field: value})
     with pytest.raises(ValueError, match="future_warm_up"):
         DDPGConfig(her_strategy="none", future_warm_up=10)
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [
+        {"relabel_prob": 0.8, "relabel_actual": 0.4},
+        {"relabel_actual": -0.1},
+        {"her_strategy": "none", "relabel_actual": 0.2},
+    ],
+)
+def test_bad_actual_shares_name_the_field(fields):
+    with pytest.raises(ValueError, match="relabel_actual"):
+        DDPGConfig(**fields)
