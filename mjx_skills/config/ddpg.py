@@ -50,6 +50,10 @@ class DDPGConfig:
     """Normalised observations and goals are clipped to [-norm_clip, norm_clip]."""
     norm_eps: float = 1e-2
     """Floor of the normaliser's std, so constant inputs do not blow up."""
+    goal_stats: Literal["desired_and_achieved", "desired"] = "desired_and_achieved"
+    """Which goals of the fresh episodes the goal normaliser sees: desired and achieved (the
+    HER baselines'), or the desired goals only (mrl's, whose normaliser is updated with the
+    inputs the policy acts on)."""
     her_strategy: Literal["future", "final", "episode", "none"] = "future"
     """Hindsight goal strategy: a later step ('future'), the last step ('final'), any step
     of the episode ('episode'), or no relabelling ('none')."""

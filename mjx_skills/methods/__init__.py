@@ -100,6 +100,7 @@ PAS_UNREAD = {
     "ddpg.n_step": "--pas.skill-steps",
     "ddpg.future_warm_up": "--pas.relabel-prob",
     "ddpg.relabel_actual": "--pas.relabel-prob",
+    "ddpg.goal_stats": "its meta-controller's normaliser sees desired and achieved goals",
     "ddpg.warm_up": "its meta-controller updates from the first cycle",
 }
 """PAS / MPAS train the meta-controller with their own update count and hindsight; a meta

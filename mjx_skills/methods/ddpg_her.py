@@ -63,12 +63,14 @@ def her_update(
     `config.warm_up` > 0: the steps' result is kept only once the replay holds more
     transitions than that (the normalisers see the episodes either way); `config.
     future_warm_up` > 0: every goal is relabelled from the future while the replay holds
-    fewer (no `relabel_actual` share then, as mrl)."""
+    fewer (no `relabel_actual` share then, as mrl). `config.goal_stats` picks the goals the
+    goal normaliser sees."""
     demo = demo if bc_weight else None
+    goals = fresh.g
+    if config.goal_stats == "desired_and_achieved":
+        goals = jnp.concatenate([fresh.g, fresh.ag], axis=1)
     observed = ddpg_agent.observe(
-        agent,
-        fresh.obs.reshape(-1, env.obs_dim),
-        jnp.concatenate([fresh.g, fresh.ag], axis=1).reshape(-1, env.goal_dim),
+        agent, fresh.obs.reshape(-1, env.obs_dim), goals.reshape(-1, env.goal_dim)
     )
     b = config.batch_size
     stored = buffer.size * buffer.T  # transitions in the replay (its episodes are whole)

@@ -1,7 +1,9 @@
 """The start of training as mrl's Fetch benchmark has it (all off by default, as the thesis):
 uniform random actions for the first env steps (`--random-steps`), no gradient step before
 the replay holds enough transitions (`--ddpg.warm-up`), and every goal relabelled until it
-holds more (`--ddpg.future-warm-up`). On the 2-D point env of test_rollout (no physics)."""
+holds more (`--ddpg.future-warm-up`); and what its normaliser and relabelling read
+(`--ddpg.goal-stats`, `--ddpg.relabel-actual`). On the 2-D point env of test_rollout (no
+physics)."""
 
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ import pytest
 
 from mjx_skills.agents import ddpg as ddpg_agent
 from mjx_skills.config import DDPGConfig, TrainConfig
-from mjx_skills.core import replay, rollout
+from mjx_skills.core import normalizer, replay, rollout
 from mjx_skills.core.rollout import stateless
 from mjx_skills.methods import ddpg_her
 from mjx_skills.training import epoch
@@ -89,6 +91,21 @@ def test_warm_up_holds_the_networks_until_the_replay_holds_more_transitions(warm
     assert _same(before.critic_params, after.critic_params) is not trains
     # The normalisers see the episodes either way.
     assert float(after.obs_norm.count) == 4 * (T + 1) > float(before.obs_norm.count)
+
+
+@pytest.mark.parametrize(
+    "goal_stats, per_episode", [("desired_and_achieved", 2 * T + 1), ("desired", T)]
+)
+def test_the_goal_normaliser_sees_the_goals_goal_stats_names(goal_stats, per_episode):
+    config = DDPGConfig(hidden=(8,), batch_size=16, goal_stats=goal_stats)
+    _, after, buffer = _update(config)
+    assert float(after.goal_norm.count) == 4 * per_episode
+    desired = np.asarray(buffer.data.g[:4]).reshape(-1, 2)
+    achieved = np.asarray(buffer.data.ag[:4]).reshape(-1, 2)
+    seen = desired if goal_stats == "desired" else np.concatenate([desired, achieved])
+    np.testing.assert_allclose(
+        normalizer.mean_std(after.goal_norm, 1e-2)[0], seen.mean(0), atol=1e-5
+    )
 
 
 @pytest.mark.parametrize("future_warm_up, relabelled", [(4 * T + 1, True), (4 * T, False)])
