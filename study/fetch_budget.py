@@ -31,6 +31,17 @@ def ours(name: str) -> tuple[float, int, int, int] | None:
     return batch * updates / steps, batch, updates, steps
 
 
+def relabelling(name: str) -> str | None:
+    """The published method whose relabelling the DDPG+HER cell of experiment `name` uses:
+    'DDPG w/ HER+FA' (mrl's futureactual) if it draws actual goals (`ddpg.relabel_actual` >
+    0), else 'DDPG w/ HER' (future achieved goals only); None for another method or an
+    unknown experiment."""
+    args = _cell_args(name)
+    if args is None:
+        return None
+    return "DDPG w/ HER+FA" if args.full_options()["ddpg"].relabel_actual > 0 else "DDPG w/ HER"
+
+
 def _cell_args(label: str):
     """RunArgs of the DDPG+HER cell of experiment `label` (a label 'EXPERIMENT: METHOD
     LABEL' names the cell of that method; a bare one, the first); None for another method or

@@ -34,7 +34,8 @@ PLAIN = "DDPG w/ HER"
 def published(text: str | None = None) -> list[dict]:
     """The published figures, each a dict of the data file's fields (`text`: the file's, by
     default `PUBLISHED`'s); a figure's `learner` names an entry of the file's `[learners]`
-    table and is given as that entry's text. KeyError for a name the table lacks."""
+    table and is given as that entry's text, followed by the figure's own `relabelling`
+    where it has one. KeyError for a name the table lacks."""
     data = tomllib.loads(PUBLISHED.read_text() if text is None else text)
     learners = data.get("learners", {})
     figures = []
@@ -45,7 +46,12 @@ def published(text: str | None = None) -> list[dict]:
                 f"{PUBLISHED.name}: figure {figure['method']!r} on {figure['env']} names learner "
                 f"{name!r}; the [learners] table has {sorted(learners)}"
             )
-        figures.append(figure | ({"learner": learners[name]} if name else {}))
+        if name is not None:
+            text = learners[name]
+            if "relabelling" in figure:
+                text += f", {figure.pop('relabelling')}"
+            figure = figure | {"learner": text}
+        figures.append(figure)
     return figures
 
 
@@ -89,7 +95,8 @@ def shortfalls(ours) -> list[str]:
             out.append(
                 f"On {env}, {name} reaches {LEVEL} at {steps:,} env steps {interval}; "
                 f"{theirs} ({best['env']}, read to +-{read_error():,}): {verdict}."
-                f"{_caveats(name)}{with_build}{_unreproduced(env, mine, best)}"
+                f"{_caveats(name)}{with_build}"
+                + _unreproduced(env, relabelled_as(mine, best), best)
             )
         else:
             name, per, s = max(mine, key=lambda m: stats.summarize(m[2]).last[0])
@@ -99,8 +106,27 @@ def shortfalls(ours) -> list[str]:
                 f"steps); {theirs}: we fall short of the published DDPG+HER."
                 + fetch_budget.sentence(name, best)
             )
-        out += [r for r in [fetch_budget.reproduction(env, mine, best, LEVEL)] if r]
+        for figure in [best, *variants(env)]:
+            said = fetch_budget.reproduction(env, relabelled_as(mine, figure), figure, LEVEL)
+            out += [said] if said else []
     return ["", *out] if out else []
+
+
+def variants(env: str) -> list[dict]:
+    """The fastest published figure on `env` of each method other than `PLAIN` (as
+    'DDPG w/ HER+FA'), which our DDPG+HER cells that relabel as it does are set against."""
+    fastest = {}
+    for f in sorted(published(), key=lambda f: -f["env_steps"]):
+        if f["env"].startswith(env + "-") and f["method"] != PLAIN:
+            fastest[f["method"]] = f
+    return list(fastest.values())
+
+
+def relabelled_as(mine: list, figure: dict) -> list:
+    """The cells of `mine` ((label, per, success)) but the DDPG+HER ones whose relabelling
+    is not `figure`'s method's (`fetch_budget.relabelling`): what its reproduction reads."""
+    keep = (None, figure["method"])
+    return [m for m in mine if fetch_budget.relabelling(m[0]) in keep]
 
 
 def _unreproduced(env: str, mine: list, figure: dict) -> str:

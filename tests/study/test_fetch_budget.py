@@ -156,8 +156,9 @@ def test_published_figures_carry_their_sources():
         keys = {"source", "url", "commit", "env", "method", "setting", "level", "env_steps"}
         learner = {"batch_size", "env_steps_per_update"}  # the gradient budget, both or none
         # `learner` (the published learner's settings in words) only beside its budget
-        assert set(f) - {"learner"} in (keys, keys | learner), f
+        assert set(f) - {"learner", "relabelling"} in (keys, keys | learner), f
         assert "learner" not in f or learner <= set(f), f
+        assert "relabelling" not in f or "learner" in f, f  # it completes a learner's text
         assert all(f.get(k, 1) >= 1 for k in learner), f
         assert f["url"].startswith("https://github.com/") and f["url"].endswith(".png")
         assert re.fullmatch(r"[0-9a-f]{7,40}", f["commit"])
@@ -179,3 +180,35 @@ def test_a_figures_learner_is_the_text_its_name_has_in_the_learners_table():
     assert one["learner"] == "3 x 256, batch 2000"
     with pytest.raises(KeyError, match=r"learner 'theirs'.*\['mine'\]"):
         fetch_claims.published(table + figure.format("theirs"))
+
+
+def test_a_figures_relabelling_completes_its_learners_text():
+    from study import fetch_claims
+
+    figure = '[[figure]]\nmethod = "m"\nenv = "FetchPush-v4"\nlearner = "mine"\n'
+    table = '[learners]\nmine = "3 x 256"\n\n'
+    (one,) = fetch_claims.published(table + figure + 'relabelling = "then 4 in 5"\n')
+    assert one["learner"] == "3 x 256, then 4 in 5" and "relabelling" not in one
+    by_method = {f["method"]: f["learner"] for f in fetch_claims.published()}
+    assert "future_4" in by_method["DDPG w/ HER"]
+    assert "futureactual_2_2" in by_method["DDPG w/ HER+FA"]
+
+
+def test_a_cell_drawing_actual_goals_is_set_against_her_fa_and_no_other():
+    from study import fetch_claims
+
+    assert fetch_budget.relabelling("fetch_push_her_mrl") == "DDPG w/ HER"
+    assert fetch_budget.relabelling("fetch_push_her_mrl_goals") == "DDPG w/ HER+FA"
+    assert fetch_budget.relabelling("fetch_pick_and_place_sl") is None
+    ours = [
+        ("fetch_push_her_mrl", "fetch_push", 800, np.full((1, 450), 0.5)),
+        ("fetch_push_her_mrl_goals", "fetch_push", 800, np.full((1, 250), 0.3)),
+    ]
+    said = [s for s in fetch_claims.shortfalls(ours) if "reproduction" in s]
+    plain, fa = said
+    assert plain.startswith("DDPG+HER's reproduction on FetchPush: DDPG w/ HER (mrl")
+    assert "fetch_push_her_mrl (" in plain and "fetch_push_her_mrl_goals" not in plain
+    assert fa.startswith("DDPG+HER's reproduction on FetchPush: DDPG w/ HER+FA (mrl")
+    assert "reaches 0.9 at 249,000" in fa
+    assert "fetch_push_her_mrl_goals (" in fa and "fetch_push_her_mrl (" not in fa
+    assert "futureactual_2_2" in fa and "future_4" not in fa
