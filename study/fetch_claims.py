@@ -13,9 +13,9 @@ from pathlib import Path
 from mjx_skills.analysis import stats
 from mjx_skills.core.paths import in_checkout
 from mjx_skills.sweeps import cells
-from mjx_skills.sweeps.experiment_file import names, raw
+from mjx_skills.sweeps.experiment_file import names, parent, raw
 from mjx_skills.sweeps.experiments import load_experiment
-from mjx_skills.sweeps.seeds import TUNING_SEEDS, seed_range
+from mjx_skills.sweeps.seeds import FRESH_SEEDS, TUNING_SEEDS, seed_range
 from study import fetch_budget
 from study.fetch_library import build_env_steps
 
@@ -41,6 +41,11 @@ def published(text: str | None = None) -> list[dict]:
     figures = []
     for figure in data["figure"]:
         name = figure.get("learner")
+        if name is None and "relabelling" in figure:
+            raise KeyError(
+                f"{PUBLISHED.name}: figure {figure['method']!r} on {figure['env']} has a "
+                "relabelling but no learner for it to complete"
+            )
         if name is not None and name not in learners:
             raise KeyError(
                 f"{PUBLISHED.name}: figure {figure['method']!r} on {figure['env']} names learner "
@@ -74,7 +79,8 @@ def shortfalls(ours) -> list[str]:
             continue
         best = min(figures, key=lambda f: f["env_steps"])
         reached = [
-            (stats.first_reaching(s.mean(axis=0), LEVEL), per, name, s) for name, per, s in mine
+            (stats.first_reaching(s.mean(axis=0), LEVEL), per, name, s)
+            for name, per, s in relabelled_as(mine, best)
         ]
         reached = [(hit * per, name, per, s) for hit, per, name, s in reached if hit is not None]
         theirs = f"{best['method']} ({best['source']}) reaches it at {best['env_steps']:,}"
@@ -172,13 +178,19 @@ def _against(scores, per: int, published_steps: int, offset: int = 0) -> tuple[s
 
 def fresh(name: str) -> bool:
     """The cell labelled `name` is a headline's (`role = "headline"`, by itself or through
-    `extends`) or the matched baseline a headline names (`baseline = NAME`, which may extend
-    a tuning file): it ran on seeds no tuning run used."""
+    `extends`), the matched baseline a headline names (`baseline = NAME`, which may extend
+    a tuning file), or one run further from such a file on fresh seeds only (`extends` one,
+    its seeds within `FRESH_SEEDS`, as a baseline's long budget): it ran on seeds no tuning
+    run used."""
     name = name.split(":")[0]
     if name not in names():
         return False
     headlines = [raw(n) for n in names() if raw(n).get("role") == "headline"]
-    return raw(name).get("role") == "headline" or any(h.get("baseline") == name for h in headlines)
+    if raw(name).get("role") == "headline" or any(h.get("baseline") == name for h in headlines):
+        return True
+    base, exp = parent(name), load_experiment(name)
+    ran = seed_range(exp.seed, exp.seeds)
+    return base is not None and set(ran) <= set(FRESH_SEEDS) and fresh(base)
 
 
 def _caveats(name: str) -> str:

@@ -94,7 +94,7 @@ class DDPGConfig:
         _check(0.0 <= self.random_eps <= 1.0, "random_eps", "must lie in [0, 1]")
         _check(0.0 <= self.relabel_prob <= 1.0, "relabel_prob", "must lie in [0, 1]")
         _check(
-            0.0 <= self.relabel_actual <= 1.0 - self.relabel_prob,
+            self.relabel_actual >= 0.0 and self.relabel_prob + self.relabel_actual <= 1.0 + 1e-9,
             "relabel_actual",
             f"must lie in [0, 1 - relabel_prob] = [0, {1.0 - self.relabel_prob:g}]",
         )

@@ -248,6 +248,11 @@ def test_actual_goals_are_desired_goals_drawn_from_the_whole_replay(buffer):
     assert abs(future.mean() - 0.4) < 0.03
     # An actual draw repeats the transition's own (episode, step) 1 time in N_FILLED * T.
     assert abs(actual.mean() - 0.4 * (1 - 1 / (N_FILLED * T))) < 0.03
+    # Its episode and step are both drawn afresh: another episode 11 times in 12, another
+    # step 9 times in 10, over all non-future goals (the own 0.2 share included).
+    rest = ~future
+    assert abs(np.mean(-goal[rest, 0] != ep[rest]) - 0.4 / 0.6 * (1 - 1 / N_FILLED)) < 0.03
+    assert abs(np.mean(-goal[rest, 1] != t[rest]) - 0.4 / 0.6 * (1 - 1 / T)) < 0.03
     np.testing.assert_array_equal(
         batch["reward"], np.asarray(compute_reward(batch["next_ag"], goal))
     )

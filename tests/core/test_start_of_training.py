@@ -109,15 +109,22 @@ def test_the_goal_normaliser_sees_the_goals_goal_stats_names(goal_stats, per_epi
 
 
 @pytest.mark.parametrize("future_warm_up, relabelled", [(4 * T + 1, True), (4 * T, False)])
+@pytest.mark.parametrize("actual", [0.0, 0.4])
 def test_future_warm_up_relabels_every_goal_while_the_replay_holds_fewer(
-    future_warm_up, relabelled, monkeypatch
+    future_warm_up, relabelled, actual, monkeypatch
 ):
     seen = []
     sample = ddpg_her.her.sample_batch
     monkeypatch.setattr(
         ddpg_her.her, "sample_batch", lambda *a, **k: seen.append(sample(*a, **k)) or seen[-1]
     )
-    config = DDPGConfig(hidden=(8,), batch_size=64, relabel_prob=0.0, future_warm_up=future_warm_up)
+    config = DDPGConfig(
+        hidden=(8,),
+        batch_size=64,
+        relabel_prob=0.0,
+        relabel_actual=actual,
+        future_warm_up=future_warm_up,
+    )
     _, _, buffer = _update(config)
     goals = np.asarray(seen[0]["goal"])
     stored = buffer.size
@@ -125,7 +132,9 @@ def test_future_warm_up_relabels_every_goal_while_the_replay_holds_fewer(
     desired = np.asarray(buffer.data.g[:stored]).reshape(-1, 2)
     is_achieved = (goals[:, None] == achieved[None]).all(-1).any(1)
     is_desired = (goals[:, None] == desired[None]).all(-1).any(1)
-    # Random goals in the unit square: no episode's goal is a point it reached.
+    # Random goals in the unit square: no episode's goal is a point it reached. During the
+    # warm-up every goal is a future one, no actual share; after it (relabel_prob 0) each
+    # is a desired goal, its own or (relabel_actual) another transition's.
     assert bool(np.all(is_achieved)) is relabelled
     assert bool(np.all(is_desired)) is not relabelled
 
@@ -152,3 +161,9 @@ def test_bad_start_settings_name_the_field(field, value):
 def test_bad_actual_shares_name_the_field(fields):
     with pytest.raises(ValueError, match="relabel_actual"):
         DDPGConfig(**fields)
+
+
+@pytest.mark.parametrize("future, actual", [(0.8, 0.2), (0.9, 0.1), (0.4, 0.4), (0.0, 1.0)])
+def test_actual_shares_up_to_the_rest_are_accepted(future, actual):
+    config = DDPGConfig(relabel_prob=future, relabel_actual=actual)
+    assert config.relabel_actual == actual

@@ -212,3 +212,11 @@ def test_a_cell_drawing_actual_goals_is_set_against_her_fa_and_no_other():
     assert "reaches 0.9 at 249,000" in fa
     assert "fetch_push_her_mrl_goals (" in fa and "fetch_push_her_mrl (" not in fa
     assert "futureactual_2_2" in fa and "future_4" not in fa
+
+
+def test_a_relabelling_without_a_learner_is_refused():
+    from study import fetch_claims
+
+    figure = '[[figure]]\nmethod = "m"\nenv = "FetchPush-v4"\nrelabelling = "then 4 in 5"\n'
+    with pytest.raises(KeyError, match="relabelling but no learner"):
+        fetch_claims.published(figure)

@@ -285,6 +285,9 @@ def test_a_headlines_matched_baseline_is_fresh_even_when_it_extends_a_tuning_fil
     assert fetch_claims.fresh("headline_fetch_push_her")  # named by headline_fetch_push
     assert fetch_claims.fresh("headline_fetch_push_fast_no_library")  # a headline by extends
     assert not fetch_claims.fresh("fetch_push_her") and not fetch_claims.fresh("no_such_one")
+    # run further from a headline's baseline on its fresh seeds: fresh too
+    assert fetch_claims.fresh("headline_fetch_pick_and_place_her_1m")
+    assert fetch_claims.fresh("headline_fetch_push_her_500k")
     # a diagnostic on seed 0 is said to have run on a tuning seed
     assert "ran on the tuning seeds 0-0" in fetch_claims._caveats("fetch_push_her_mrl")
 
