@@ -329,15 +329,21 @@ def figure(ours, out: Path, draw: bool = True) -> Path | None:
     from matplotlib.ticker import FuncFormatter
 
     tasks = list(dict.fromkeys(task for _, task, _, _ in ours))
-    fig, axes = plt.subplots(1, len(tasks), figsize=(4.6 * len(tasks), 3.4), squeeze=False)
+    rows = max(sum(t == task for _, t, _, _ in ours) for task in tasks) // 2 + 1
+    # The legends stand below the panels (two columns), so the figure grows with the cells.
+    height = 3.4 + 0.14 * rows
+    fig, axes = plt.subplots(1, len(tasks), figsize=(4.6 * len(tasks), height), squeeze=False)
+    colours = plt.get_cmap("tab20").colors  # 20 distinct colours: a panel has up to ~25
     for ax, task in zip(axes[0], tasks, strict=True):
-        for i, (name, cell_task, per, s) in enumerate(ours):
-            if cell_task != task:
-                continue
+        mine = [cell for cell in ours if cell[1] == task]
+        for i, (name, _, per, s) in enumerate(mine):
             x = np.arange(1, s.shape[1] + 1) * per
             style = "--" if name.startswith("SB3") else "-"  # a peer's run (`peer_cells`)
-            ax.plot(x, s.mean(axis=0), style, lw=1.3, color=f"C{i}", label=name)
-            ax.fill_between(x, s.min(axis=0), s.max(axis=0), color=f"C{i}", alpha=0.15, lw=0)
+            if i >= len(colours):  # past 20 a colour comes back, dotted
+                style = "--" if style == "--" else ":"
+            colour = colours[i % len(colours)]
+            ax.plot(x, s.mean(axis=0), style, lw=1.3, color=colour, label=name)
+            ax.fill_between(x, s.min(axis=0), s.max(axis=0), color=colour, alpha=0.12, lw=0)
         theirs = [f for f in published() if f["env"].startswith(ENVS[task] + "-")]
         for k, f in enumerate(sorted(theirs, key=lambda f: f["env_steps"])):
             ax.plot(f["env_steps"], LEVEL, "k^", ms=6)
@@ -352,7 +358,7 @@ def figure(ours, out: Path, draw: bool = True) -> Path | None:
         ax.set_xlim(0, ax.get_xlim()[1] * 1.12)  # room for the published points' labels
         ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / 1000:g}k"))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="center right")  # clear of the curves on each panel
+        ax.legend(fontsize=6, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.2))
     axes[0][0].set_ylabel("eval success (20 episodes)")
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
