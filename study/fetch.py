@@ -339,8 +339,8 @@ def figure(ours, out: Path, draw: bool = True) -> Path | None:
         for i, (name, _, per, s) in enumerate(mine):
             x = np.arange(1, s.shape[1] + 1) * per
             style = "--" if name.startswith("SB3") else "-"  # a peer's run (`peer_cells`)
-            if i >= len(colours):  # past 20 a colour comes back, dotted
-                style = "--" if style == "--" else ":"
+            if i >= len(colours) and style == "-":  # past 20 a colour comes back, dotted
+                style = ":"
             colour = colours[i % len(colours)]
             ax.plot(x, s.mean(axis=0), style, lw=1.3, color=colour, label=name)
             ax.fill_between(x, s.min(axis=0), s.max(axis=0), color=colour, alpha=0.12, lw=0)
